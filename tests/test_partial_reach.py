@@ -25,7 +25,8 @@ sum to 1 - 6 x), before it had no weight at all.
 In 2D (a P1 block of 3 x 1 cells, plane strain, on the same two obstacles) each obstacle's rows were the run of
 the vertices that reach it, weighed by that run's own mesh: the segment 1/3 < x < 2/3 between the runs weighed
 nothing (0.10 DELTA off the closed form, 0.72 P). Now each row weighs its hat over the whole trace (1/6, 1/3,
-1/3, 1/6 m). (2D P2 lines still miss that segment: its midpoint is a row of neither pair, docs/formulation.md §15.)
+1/3, 1/6 m). (2D P2 lines still miss that segment: its midpoint is a row of neither pair, docs/formulation.md §10,
+tests/test_p2_line_reach_hole.py.)
 """
 
 import numpy as np

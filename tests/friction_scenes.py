@@ -409,9 +409,10 @@ def finished_p2(scene):
 def declined_p2(scene):
     """The answer of ``scene`` under the P2 cones (:data:`P2_CONES`) where the 3D finish at the exact tangency points
     and on the ridges declines after the cut rounds: the cuts' answer, labelled as a declined finish (a
-    ResidualWarning naming the decline, not polished, no finish, ``info.declined`` saying why, the interior point's
-    route); asserts those."""
-    with pytest.warns(cc.ResidualWarning, match="was declined"):
+    ResidualWarning naming the decline and the cut rounds' answer as what is kept, not polished, no finish,
+    ``info.declined`` saying why, the interior point's route); asserts those."""
+    with pytest.warns(cc.ResidualWarning,
+                      match=r"was declined \(.*\); the cut rounds' answer is kept \(sol.polished is False\)"):
         sol = cc.solve(scene, **P2_CONES)
     assert not sol.polished and sol.info.finish is None and sol.info.route == cc.Route.INTERIOR_POINT_FRICTION
     assert "not finished at the exact tangency points" in str(sol.info.declined), sol.info.declined

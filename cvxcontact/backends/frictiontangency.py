@@ -150,6 +150,10 @@ the finish closed is 0 to rounding, measured at most 5.2e-31; the open nodes of 
 least 2.4e-8 below it)."""
 
 
+CUTS_KEPT = "cut rounds' answer"
+"""What :func:`kept` keeps where the polish declined (:attr:`~cvxcontact.backends.result.RawResult.kept`)."""
+
+
 def kept(problem, cuts, done):
     """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points: the polish's answer
     ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`, 3D) and the
@@ -171,5 +175,5 @@ def kept(problem, cuts, done):
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in cuts.u] + [np.finfo(float).tiny])
     if (np.abs(jump - problem.g)[cells[pressed]] <= CLOSED * U).all():
         return cuts
-    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION,
-                   declined=done.within("the cut rounds' answer is kept, not finished at the exact tangency points"))
+    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION, kept=CUTS_KEPT,
+                   declined=done.within(f"the {CUTS_KEPT} is kept, not finished at the exact tangency points"))

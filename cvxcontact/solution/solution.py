@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
+from ..backends.result import INTERIOR_POINT_KEPT
 from ..fem.trace import TRACES, LinearTrace
 from ..errors import SceneError
 from ..physics.scene import Scene
@@ -451,7 +452,7 @@ class Solution:
             its potential (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; :attr:`estimate`.
         """
         declined = self.info.declined
-        finish = ("exact finish" if self.polished else "interior-point answer"
+        finish = ("exact finish" if self.polished else (self.info.kept or INTERIOR_POINT_KEPT)
                   + (f" (exact finish declined: {declined.phrase})" if declined else ""))
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"

@@ -17,7 +17,7 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import P, dragged_disk, finished_p2, pair2d, pressed_disk, tilted
+from friction_scenes import P, declined_p2, dragged_disk, finished_p2, pair2d, pressed_disk, tilted, walled_disk
 
 import cvxcontact as cc
 
@@ -148,6 +148,35 @@ def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene, onc
         alone = cc.solve(scene(short), polish=False, **P2)
     assert not declined.polished and len(declined.info.fixed_point) == 2
     assert np.allclose(declined.info.fixed_point, alone.info.fixed_point, rtol=1e-6, atol=0)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+def test_a_declined_2d_polish_labels_the_cut_rounds_answer_declined_and_keeps_it(law, monkeypatch):
+    """The block dragged over a disk against a wall (:func:`friction_scenes.walled_disk`): the Newton at the
+    tangency points declines (its tangency structure unsettled in 10 rounds; Coulomb: at its second iterate) and
+    the cut rounds' answer stands, labelled as every declined finish is (:func:`friction_scenes.declined_p2`: not
+    polished, no finish, the interior point's route, ``info.declined`` the polish's reason, a ResidualWarning saying
+    the cut rounds' answer is kept); it read polished, finished by the friction Newton, with no warning before.
+    The label alone changed: the arrays are bit for bit those of the answer unlabelled (the decline read as
+    before, ``friction._kept`` passing the cuts' answer on), and its checks sit at the cuts' stop."""
+    from cvxcontact.backends import friction
+    from cvxcontact.backends.finish import Declined
+
+    sol = declined_p2(walled_disk(law), {"degree": 2})
+    assert "the tangency structure did not settle in 10 rounds" in sol.info.declined, sol.info.declined
+    assert sol.info.kept == "cut rounds' answer"
+    assert sol.report().splitlines()[0].endswith("cut rounds' answer (exact finish declined: "
+                                                 f"{sol.info.declined.phrase})")
+    assert max(sol.residuals().values()) <= 1e-5               # measured 1.2e-10 (Tresca), 5.6e-8 (Coulomb)
+    monkeypatch.setattr(friction, "_kept", lambda problem, cuts, done: cuts if isinstance(done, Declined) else done)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")               # (Coulomb: the interior point's FixedPointWarning)
+        unlabelled = cc.solve(walled_disk(law), degree=2)
+    assert unlabelled.polished and unlabelled.info.declined is None
+    assert all(np.array_equal(a, b) for a, b in zip(sol.u, unlabelled.u))
+    assert all(np.array_equal(a.force, b.force) and np.array_equal(a.shear_force, b.shear_force)
+               for a, b in zip(sol.contacts, unlabelled.contacts))
 
 
 @pytest.mark.numerics

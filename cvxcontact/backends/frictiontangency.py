@@ -155,15 +155,14 @@ CUTS_KEPT = "cut rounds' answer"
 
 
 def kept(problem, cuts, done):
-    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points: the polish's answer
-    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`, 3D) and the
-    contact ends inside an element (a cut point with a positive force on a triangle whose P2 nodes are not all
-    closed, :data:`CLOSED`: else the slack vanishes on each pressed triangle, q quadratic and 0 at its six nodes, and
-    the cuts' answer is exact), the cuts' answer labelled as a finish that declined: not polished, the interior
-    point's route, ``declined`` the polish's reason (the read-back reports it, the solve warns; module docstring);
-    ``done`` None (2D's polish declined), the cuts' answer as it is."""
-    if done is None:
-        return cuts
+    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points (2D:
+    :func:`~cvxcontact.backends.friction._tangency_polish`, 3D: :func:`tangency_polish`): the polish's answer
+    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`) and the
+    contact ends inside an element (a cut point with a positive force on an element, a segment in 2D, a triangle in
+    3D, whose P2 nodes are not all closed, :data:`CLOSED`: else the slack vanishes on each pressed element, q
+    quadratic and 0 at its three or six nodes, and the cuts' answer is exact), the cuts' answer labelled as a finish
+    that declined: not polished, the interior point's route, ``declined`` the polish's reason (the read-back reports
+    it, the solve warns; module docstring); else the cuts' answer as it is."""
     if not isinstance(done, Declined):
         return done
     cells = problem.lines.cone[1]

@@ -125,7 +125,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
     of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
     (``polish``) the exact finish, :func:`exact_finish`."""
-    raw, unsettled = _interior(problem, settings, timings, _row_forces)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_row_forces)
     raw.active = interior_active(problem, raw)
     if settings.polish:
         exact_finish(problem, raw, timings)
@@ -173,7 +173,7 @@ def conic_full(problem, cache, settings, timings) -> RawResult:
     (``polish``)
     :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
     why (the read-back checks it: the conic checks and the friction law's)."""
-    raw, unsettled = _interior(problem, settings, timings, _cone_forces)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_cone_forces)
     if settings.polish:
         raw = finish_on_nodes(problem, raw, timings)
     else:
@@ -475,7 +475,7 @@ def row_forces(problem, model: ContactModel, u, taus) -> tuple:
     return np.asarray(model.contact.dual_value, dtype=float).ravel(), None, None
 
 
-def _row_forces(problem, model):
+def normal_row_forces(problem, model):
     """(y, None): the normal row forces of the solved program (scaled), as its term reads them (Signorini rows:
     their multipliers; beside a compliance law w p(r) + z on every row, :func:`~cvxcontact.backends.compliance.
     compliance_forces`)."""
@@ -484,14 +484,14 @@ def _row_forces(problem, model):
     return problem.term.program_forces(problem, model, values, taus)[0], None
 
 
-def _cone_forces(problem, model):
+def normal_cone_forces(problem, model):
     """(r, beta): the cones' nodal force r = B^T beta on X_h and their Bernstein duals beta (the held elements' at
     their least admissible value; :func:`~cvxcontact.backends.cones.cone_forces`), scaled."""
     y, _, beta = problem.term.program_forces(problem, model, None, None)
     return y, beta
 
 
-def _interior(problem, settings, timings, normal, model=None, extra=(), objective=None):
+def interior_answer(problem, settings, timings, normal, model=None, extra=(), objective=None):
     """(raw, unsettled): the interior point's answer of the full program with the friction energy (Tresca's, or
     Coulomb's fixed point), ``normal(problem, model) -> (y, beta)`` reading the normal forces of the solved
     program; ``unsettled`` the words of a :class:`~cvxcontact.errors.FixedPointWarning` (None: converged or

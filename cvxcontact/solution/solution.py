@@ -439,7 +439,7 @@ class Solution:
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"pair must be an index of scene.contacts (0 to {len(self.scene.interfaces) - 1}), "
                              f"got {pair!r}")
-        return _pairs(self.scene, self.interface)[0][pair]
+        return pair_lines(self.scene, self.interface)[0][pair]
 
     def report(self) -> str:
         """A short human-readable account of the solve: what `cvxcontact solve` prints.
@@ -547,7 +547,7 @@ def obstacle_results(sol, translations, obstacles=None, friction=None) -> None:
         sol._checks["obstacle balance"] = worst
 
 
-def _pairs(scene, interface):
+def pair_lines(scene, interface):
     """(each pair's contact line, the offsets of its nodes in the stacked arrays): P1 (``interface`` None)
     the scene's interfaces; P2 a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` (one pair) or a
     :class:`~cvxcontact.contact.quadratic.QuadraticStack`."""
@@ -558,7 +558,7 @@ def _pairs(scene, interface):
     return [interface], [0, interface.size]
 
 
-def _line(pair) -> float:
+def line_offset(pair) -> float:
     """The ordinate (m) of a 2D pair's line (its first part's mean x2); in 3D the offset x . nu of the
     first part's plane."""
     return float(pair.y) if hasattr(pair, "y") else float(pair.traces[0].offset)

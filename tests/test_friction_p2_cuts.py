@@ -17,7 +17,16 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_scenes import P, declined_p2, dragged_disk, finished_p2, pair2d, pressed_disk, tilted, walled_disk
+from friction_scenes import (
+    P,
+    declined_p2,
+    dragged_disk,
+    finished_p2,
+    pair2d,
+    pressed_disk,
+    tilted,
+    walled_disk,
+)
 
 import cvxcontact as cc
 
@@ -153,30 +162,50 @@ def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene, onc
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
 def test_a_declined_2d_polish_labels_the_cut_rounds_answer_declined_and_keeps_it(law, monkeypatch):
-    """The block dragged over a disk against a wall (:func:`friction_scenes.walled_disk`): the Newton at the
-    tangency points declines (its tangency structure unsettled in 10 rounds; Coulomb: at its second iterate) and
-    the cut rounds' answer stands, labelled as every declined finish is (:func:`friction_scenes.declined_p2`: not
-    polished, no finish, the interior point's route, ``info.declined`` the polish's reason, a ResidualWarning saying
-    the cut rounds' answer is kept); it read polished, finished by the friction Newton, with no warning before.
-    The label alone changed: the arrays are bit for bit those of the answer unlabelled (the decline read as
-    before, ``friction._kept`` passing the cuts' answer on), and its checks sit at the cuts' stop."""
+    """The block dragged over a disk (its contact ends inside elements) with the 2D Newton at the tangency points
+    made to decline (``friction.tangency_newton`` said to stall): the cut rounds' answer stands, labelled as every
+    declined finish is (:func:`friction_scenes.declined_p2`: not polished, no finish, the interior point's route,
+    ``info.declined`` the polish's reason, a ResidualWarning and the report's first line saying the cut rounds'
+    answer is kept); it read polished, finished by the friction Newton, with no warning before. The label alone
+    changed: the arrays are bit for bit those of the answer unlabelled (``friction._kept`` passing the cuts' answer
+    on, as before), and its checks sit at the cuts' stop."""
     from cvxcontact.backends import friction
-    from cvxcontact.backends.finish import Declined
+    from cvxcontact.backends.finish import Declined, Stop
 
-    sol = declined_p2(walled_disk(law), {"degree": 2})
-    assert "the tangency structure did not settle in 10 rounds" in sol.info.declined, sol.info.declined
+    monkeypatch.setattr(friction, "tangency_newton", lambda *args, **kwargs: Declined(Stop.STALL, "stalled (a test)"))
+    sol = declined_p2(dragged_disk(law))
+    assert sol.info.declined.stop is Stop.STALL
+    assert "the friction cuts declined (stalled (a test))" in sol.info.declined, sol.info.declined
     assert sol.info.kept == "cut rounds' answer"
     assert sol.report().splitlines()[0].endswith("cut rounds' answer (exact finish declined: "
-                                                 f"{sol.info.declined.phrase})")
-    assert max(sol.residuals().values()) <= 1e-5               # measured 1.2e-10 (Tresca), 5.6e-8 (Coulomb)
+                                                 f"{Stop.STALL.value})")
+    assert max(sol.residuals().values()) <= 1e-5
     monkeypatch.setattr(friction, "_kept", lambda problem, cuts, done: cuts if isinstance(done, Declined) else done)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")               # (Coulomb: the interior point's FixedPointWarning)
-        unlabelled = cc.solve(walled_disk(law), degree=2)
+        warnings.simplefilter("error", cc.ResidualWarning)
+        unlabelled = cc.solve(dragged_disk(law), **P2)
     assert unlabelled.polished and unlabelled.info.declined is None
     assert all(np.array_equal(a, b) for a, b in zip(sol.u, unlabelled.u))
     assert all(np.array_equal(a.force, b.force) and np.array_equal(a.shear_force, b.shear_force)
                for a, b in zip(sol.contacts, unlabelled.contacts))
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+def test_the_block_dragged_over_a_disk_against_a_wall_reads_finished_or_declined(law):
+    """:func:`friction_scenes.walled_disk`: where the 2D Newton at the tangency points declines (measured with the
+    default kernels, Tresca and Coulomb: its tangency structure unsettled in 10 rounds; finished under others) the
+    answer is the cut rounds', labelled declined (``info.declined`` the polish's reason, ``info.kept``, a
+    ResidualWarning); where it finishes, polished with no warning. Either way the checks sit at the cuts' stop."""
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        sol = cc.solve(walled_disk(law), degree=2)
+    warned = [str(w.message) for w in record if issubclass(w.category, cc.ResidualWarning)]
+    assert sol.polished == (sol.info.declined is None) and bool(warned) == (not sol.polished), warned
+    if not sol.polished:
+        assert "not finished at the exact tangency points" in sol.info.declined, sol.info.declined
+        assert sol.info.kept == "cut rounds' answer" and "the cut rounds' answer is kept" in warned[0]
+    assert max(sol.residuals().values()) <= 1e-5          # measured (default) 1.2e-10 (Tresca), 5.6e-8 (Coulomb)
 
 
 @pytest.mark.numerics

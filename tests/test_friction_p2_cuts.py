@@ -179,7 +179,8 @@ def test_a_declined_2d_polish_labels_the_cut_rounds_answer_declined_and_keeps_it
     assert sol.info.kept == "cut rounds' answer"
     assert sol.report().splitlines()[0].endswith("cut rounds' answer (exact finish declined: "
                                                  f"{Stop.STALL.value})")
-    assert max(sol.residuals().values()) <= 1e-5
+    # measured (default, Haswell, Nehalem, Prescott, Sandybridge) Tresca 1.1e-11 .. 5.2e-10, Coulomb 2.5e-8 .. 1.5e-7
+    assert max(sol.residuals().values()) <= 2e-5
     monkeypatch.setattr(friction, "_kept", lambda problem, cuts, done: cuts if isinstance(done, Declined) else done)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
@@ -193,8 +194,8 @@ def test_a_declined_2d_polish_labels_the_cut_rounds_answer_declined_and_keeps_it
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
 def test_the_block_dragged_over_a_disk_against_a_wall_reads_finished_or_declined(law):
-    """:func:`friction_scenes.walled_disk`: where the 2D Newton at the tangency points declines (measured with the
-    default kernels, Tresca and Coulomb: its tangency structure unsettled in 10 rounds; finished under others) the
+    """:func:`friction_scenes.walled_disk`: where the 2D Newton at the tangency points declines (measured: Tresca
+    under the default kernels, Coulomb under all but Sandybridge; its tangency structure unsettled in 10 rounds) the
     answer is the cut rounds', labelled declined (``info.declined`` the polish's reason, ``info.kept``, a
     ResidualWarning); where it finishes, polished with no warning. Either way the checks sit at the cuts' stop."""
     with warnings.catch_warnings(record=True) as record:
@@ -205,7 +206,8 @@ def test_the_block_dragged_over_a_disk_against_a_wall_reads_finished_or_declined
     if not sol.polished:
         assert "not finished at the exact tangency points" in sol.info.declined, sol.info.declined
         assert sol.info.kept == "cut rounds' answer" and "the cut rounds' answer is kept" in warned[0]
-    assert max(sol.residuals().values()) <= 1e-5          # measured (default) 1.2e-10 (Tresca), 5.6e-8 (Coulomb)
+    # measured over the five kernel sets: declined 1.2e-10 (Tresca), 5.6e-8 (Coulomb), finished at most 8.8e-8
+    assert max(sol.residuals().values()) <= 2e-5
 
 
 @pytest.mark.numerics

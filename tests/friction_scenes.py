@@ -378,8 +378,8 @@ def walled_disk(law, s=1e-5, d=1e-4):
     pressed by that drag against a frictionless rigid wall touching its right face at x = 0.5 (its middle half,
     0.125 <= y <= 0.375, under "sigma1": not the top corner the top's displacement holds). Solve it with
     ``degree=2`` alone (the conditions are the pairs'). The 2D polish at the tangency points declines there
-    (measured: its tangency structure unsettled in 10 rounds; docs/howto/friction.md) and the cut rounds' answer
-    stands."""
+    (measured: its tangency structure unsettled in 10 rounds; docs/howto/friction.md; Tresca under the default
+    kernels, Coulomb under all but Sandybridge) and the cut rounds' answer stands."""
     m = cc.rectangle(x=(-0.5, 0.5), y=(0.0, 0.5), nx=8, ny=4, segments={"side": ("right", 0.125, 0.375)})
     body = cc.Body(m, steel(), contact="bottom", displacement={"top": (s, -d)})
     disk = cc.Contact(body, "bottom", cc.Rigid.circle(center=(0.0, -1.0), radius=1.0), law=law, condition="gamma3")

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
-from .backends.result import Cache, Settings
+from .backends.result import Cache, Settings, declined_words
 from .backends.run import run
 from .backends.start import ContactState, deferred_state
 from .contact.laws import ContactLaw, check_law, check_law_for
@@ -290,9 +290,8 @@ class ContactSolver:
     def _warn(self, sol, raw) -> None:
         p, term = self.problem, self.problem.term
         if term.finish_declined(p, raw, self.settings.polish):
-            warnings.warn(f"the exact finish of {p.scene!r} ({p.condition}) was declined ({raw.declined}); "
-                          f"the interior-point answer is kept (sol.polished is False):\n{sol.report()}",
-                          ResidualWarning, stacklevel=4)
+            warnings.warn(f"{declined_words(repr(p.scene), p.condition, raw)}:\n{sol.report()}", ResidualWarning,
+                          stacklevel=4)
         elif not sol.ok:
             hint = "" if raw.polished else term.unfinished_hint      # the term's words on its unfinished answer
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"

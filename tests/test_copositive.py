@@ -229,7 +229,7 @@ def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer
     # X_h (linear rows, dependent; the exact finish of dependent rows), m = 2 (the P2 nodes), 4, 8, 16; its
     # answer is a relaxation that tends to the copositive one
     from cvxcontact.backends import signorini
-    from cvxcontact.backends.cuts import _unique_rows
+    from cvxcontact.backends.cuts import unique_rows
     from cvxcontact.backends.result import Cache, Settings
     from cvxcontact.contact.bernstein import point_rows
     from cvxcontact.solve import ContactSolver
@@ -243,7 +243,7 @@ def test_the_condition_sampled_at_more_points_converges_to_the_copositive_answer
     for m in (2, 4, 8, 16):
         L = simplex_grid(m)
         P = point_rows(B, np.repeat(np.arange(T), len(L)), np.tile(L, (T, 1)))
-        raw = signorini.full(problem.with_rows(P[_unique_rows(P)]), Cache(), Settings(), {})
+        raw = signorini.full(problem.with_rows(P[unique_rows(P)]), Cache(), Settings(), {})
         assert raw.polished
         u = [(s.u_fixed + s.Tu @ (uk * problem.units.displacement)).reshape(-1, 3)
              for s, uk in zip(problem.systems, raw.u)]

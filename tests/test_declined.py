@@ -104,21 +104,24 @@ def test_the_finishes_that_declined_with_none_or_a_string_decline_typed():
 @pytest.mark.numerics
 def test_a_declined_finish_reaches_info_and_report(monkeypatch):
     """The condensed route's LCP finish made to decline (its steps said to cycle): the solve warns, keeps the
-    interior point's answer and says why in ``sol.info.declined`` and the report's first line."""
+    interior point's answer and says why in ``sol.info.declined`` and the report's first line; the warning and
+    ``sol.info.kept`` name the interior-point answer as what is kept."""
     from cvxcontact.backends import signorini
 
     scene = two_blocks()
     monkeypatch.setattr(signorini, "solve_lcp",
                         lambda W, d, start=None, kept=None: Declined(Stop.CYCLE, "cycled (a test)"))
-    with pytest.warns(cc.ResidualWarning, match=r"was declined \(cycled \(a test\)\)"):
+    with pytest.warns(cc.ResidualWarning, match=r"was declined \(cycled \(a test\)\); the interior-point answer "
+                                                r"is kept \(sol.polished is False\)"):
         sol = cc.solve(scene, method="condensed")
-    assert not sol.polished and sol.info.route is cc.Route.INTERIOR_POINT
+    assert not sol.polished and sol.info.route is cc.Route.INTERIOR_POINT and sol.info.kept == "interior-point answer"
     assert sol.info.declined.stop is Stop.CYCLE and sol.info.declined == "cycled (a test)"
     first = sol.report().splitlines()[0]
     assert first.endswith(f"interior-point answer (exact finish declined: {Stop.CYCLE.value})"), first
     monkeypatch.undo()
     exact = cc.solve(scene, method="condensed")
     assert exact.polished and exact.info.declined is None and "declined" not in exact.report()
+    assert exact.info.kept == ""
 
 
 @pytest.mark.numerics

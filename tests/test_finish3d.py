@@ -120,9 +120,9 @@ def test_the_crossover_keeps_the_resultant_on_independent_rows_with_forces_ge_0(
     U = G / norms[:, None]
     cand = np.flatnonzero(y0 > 0)
     scale = y0[cand] / y0[cand].max()
-    chosen, R, piv = finish._independent(U[cand].T * scale, factors=True)
-    assert (chosen == finish._independent(U[cand].T * scale)).all()
-    passive, y = finish._purified(U[cand], norms, y0, cand, chosen, (R, piv, scale) if pivoted else None)
+    chosen, R, piv = finish.independent_columns(U[cand].T * scale, factors=True)
+    assert (chosen == finish.independent_columns(U[cand].T * scale)).all()
+    passive, y = finish.purified(U[cand], norms, y0, cand, chosen, (R, piv, scale) if pivoted else None)
     assert len(passive) == np.linalg.matrix_rank(G[cand]) == np.linalg.matrix_rank(G[passive])
     assert (y >= 0).all() and (y[np.setdiff1d(np.arange(30), passive)] == 0).all()
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-13 * np.abs(G).T.dot(y0).max()   # measured <= 1.7e-16
@@ -147,16 +147,16 @@ def test_the_start_chosen_group_by_group_spans_every_row_and_keeps_the_resultant
     U = G / norms[:, None]
     y0 = rng.uniform(0.01, 1, size=len(G))
     scale = y0 / y0.max()
-    chosen, R, piv = finish._independent_rows(sp.csr_matrix(U * scale[:, None]), group=8)
+    chosen, R, piv = finish.independent_rows(sp.csr_matrix(U * scale[:, None]), group=8)
     p = len(chosen)
     assert p == np.linalg.matrix_rank(G) == np.linalg.matrix_rank(G[chosen]) == n - 2
-    assert p == len(finish._independent(U.T * scale))                      # as many as all rows at once
+    assert p == len(finish.independent_columns(U.T * scale))                      # as many as all rows at once
     assert (piv[:p] == chosen).all() and sorted(piv) == list(range(len(G)))
     M = U.T * scale
     coef = np.linalg.solve(np.triu(R[:, :p]), R[:, p:])
     assert np.abs(M[:, chosen] @ coef - M[:, piv[p:]]).max() < 1e-10         # measured <= 5.4e-16
     cand = np.arange(len(G))
-    passive, y = finish._purified(U, norms, y0, cand, chosen, (R, piv, scale))
+    passive, y = finish.purified(U, norms, y0, cand, chosen, (R, piv, scale))
     assert np.linalg.matrix_rank(G[passive]) == len(passive) == p
     assert (y >= 0).all() and (y[np.setdiff1d(cand, passive)] == 0).all()
     assert np.abs(G.T @ y - G.T @ y0).max() < 1e-12 * np.abs(G).T.dot(y0).max()   # measured <= 3.9e-16
@@ -928,7 +928,7 @@ def test_a_gamma3_resolve_after_a_load_change_is_the_fresh_solve(monkeypatch, wa
 
 def test_the_gamma3_finish_from_the_start_chosen_by_groups_is_the_one_from_all_rows_at_once(monkeypatch):
     """"gamma3" between two elastic boxes (dependent overlay rows, condensed route): the finish's independent
-    start chosen by groups of 16 neighbouring rows (:func:`~cvxcontact.backends.finish.rows._independent_rows`,
+    start chosen by groups of 16 neighbouring rows (:func:`~cvxcontact.backends.finish.rows.independent_rows`,
     the path of large interfaces) and by one pivoted QR of all the start's rows (groups larger than the rows)
     give the same answer to rounding, both checked; the grouped path ran and dropped rows."""
     from cvxcontact.backends.finish import rows as rows_module
@@ -936,14 +936,14 @@ def test_the_gamma3_finish_from_the_start_chosen_by_groups_is_the_one_from_all_r
     scene = two_boxes(12, "gamma3", elastic=True)
     monkeypatch.setattr(rows_module, "GROUP_ROWS", 10**9)
     whole = cc.solve(scene)
-    seen, chosen_by = [], rows_module._independent
+    seen, chosen_by = [], rows_module.independent_columns
 
     def spy(M, *args, **kwargs):
         seen.append(M.shape[1])
         return chosen_by(M, *args, **kwargs)
 
     monkeypatch.setattr(rows_module, "GROUP_ROWS", 16)
-    monkeypatch.setattr(rows_module, "_independent", spy)
+    monkeypatch.setattr(rows_module, "independent_columns", spy)
     grouped = cc.solve(scene)
     assert whole.ok and grouped.ok
     assert len(seen) > 3 and seen[-1] < sum(seen[:-1])  # groups, then the global QR on the rows kept (264 of 287)

@@ -242,13 +242,13 @@ def test_rows_sharing_a_node_are_sorted_out_group_by_group(monkeypatch):
     (backends/finish/friction.py, "Dependent rows"): on the shared edge the largest QR is one node's rows, not one
     dense QR of every closed row of the floor (29 x 31 at n = 3 before; 25 s of the finish at n = 48)."""
     finish = importlib.import_module("cvxcontact.backends.finish.friction")
-    seen, independent = [], finish._independent
+    seen, independent = [], finish.independent_columns
 
     def spy(M, *args, **kwargs):
         seen.append(M.shape)
         return independent(M, *args, **kwargs)
 
-    monkeypatch.setattr(finish, "_independent", spy)
+    monkeypatch.setattr(finish, "independent_columns", spy)
     sol = cc.solve(cornered3d(cc.Tresca(0.3 * P))[1])
     _finished(sol)
     assert seen and max(rows for _, rows in seen) <= 4                    # measured 2: a floor slip row, a wall row

@@ -1,7 +1,7 @@
 """The memory-saving code paths of the 3D pipeline give what the straightforward construction gives, on small
 meshes: the free rigid motions from an SVD without its left factor (`physics/supports.py` `free_basis`), the
 estimate's strain fields formed without per-cell strain matrices (`solution/estimate.py` `_strains`,
-`fem.assembly.voigt_strains`) and its diameters by blocks of cells (`_diameters`, blocks of
+`fem.assembly.voigt_strains`) and its diameters by blocks of cells (`simplex_diameters`, blocks of
 `solution/contactestimate.py` `CELLS`), the tetrahedra's barycentric gradients by
 blocks (`fem/assembly.py`, blocks of `TETS`) and the P1 corner gradients as a view of them (`corner_gradients`),
 the AMG route's coupling block taken columns first (`backends/amg.py` `_precondition`) and what it releases after
@@ -64,7 +64,8 @@ def test_estimate_strains_by_blocks_equal_the_stored_strain_matrices(monkeypatch
     p = m.points[m.cells]
     i, j = np.triu_indices(4, 1)
     edge = p[:, i] - p[:, j]                                   # every cell at once
-    assert np.array_equal(est._diameters(m.points, m.cells), np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1)))
+    assert np.array_equal(est.simplex_diameters(m.points, m.cells),
+                          np.sqrt(np.einsum("med,med->me", edge, edge).max(axis=1)))
     sol = cc.solve(scene, "sigma1", degree=degree)
     small = sol.estimate
     monkeypatch.setattr(cest, "CELLS", 1 << 15)

@@ -130,10 +130,10 @@ def test_a_node_that_does_not_move_is_scaled_by_its_neighbours():
     G = np.array([[0.0, 1.0, 0.0, 0.5]])                 # node 1 and a stiffness-free translation (unknown 3)
     x = np.array([0.3, 0.0, -0.2, 0.1])
     g = np.array([0.05])
-    S = finish._row_scale(finish.row_reach(sp.csr_matrix(A), sp.csr_matrix(G)), x, g)
+    S = finish.row_scale(finish.row_reach(sp.csr_matrix(A), sp.csr_matrix(G)), x, g)
     by_hand = (1.0 * 0.0 + 0.5 * 0.1) + 0.05 + 1.0 * (1.0 * 0.3 + 2.0 * 0.0 + 1.0 * 0.2) / 2.0
     assert S[0] == pytest.approx(by_hand, rel=1e-15)
-    assert finish._row_scale(abs(sp.csr_matrix(G)), x, g)[0] == pytest.approx(0.5 * 0.1 + 0.05, rel=1e-15)
+    assert finish.row_scale(abs(sp.csr_matrix(G)), x, g)[0] == pytest.approx(0.5 * 0.1 + 0.05, rel=1e-15)
 
 
 def test_a_row_nearly_parallel_to_a_closed_one_is_swapped_in():

@@ -119,7 +119,7 @@ def test_bad_contact_solver_flags(small, no_assembly, kw, words):
 # ------------------------------------------------------------------------------ mesh size
 
 def test_rectangle_too_large_for_the_machine(monkeypatch):
-    monkeypatch.setattr(mesh_mod, "_physical_memory", lambda: 10**8)     # a 0.1 GB machine
+    monkeypatch.setattr(mesh_mod, "physical_memory", lambda: 10**8)     # a 0.1 GB machine
     with pytest.raises(cc.MeshError) as info:
         cc.rectangle(nx=100, ny=100)
     msg = str(info.value)

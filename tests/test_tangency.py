@@ -19,7 +19,7 @@ from cvxcontact.backends import cones, tangency
 from cvxcontact.backends.full import mixed_kkt
 from cvxcontact.backends.result import Cache, Settings
 from cvxcontact.backends.finish.declined import Declined, Stop
-from cvxcontact.backends.tangency import _maximum
+from cvxcontact.backends.tangency import element_maximum
 from cvxcontact.contact.bernstein import SEGMENT, TRIANGLE, point_rows
 
 from obstacle_scenes import circle
@@ -42,7 +42,7 @@ def test_the_maximum_of_an_element_and_its_derivatives(shape, I):
         X = rng.standard_normal((k, k))
         Q = -(X @ X.T) - 0.5 * np.eye(k) + 0.3
         b = np.array([Q[i, j] for i, j in pairs])                # the Bernstein coefficients of L^T Q L
-        m, L, M = _maximum(shape, b, I)
+        m, L, M = element_maximum(shape, b, I)
         if np.all(L[list(I)] > 0.05):
             break
     n = 400 if k == 2 else 200
@@ -57,7 +57,7 @@ def test_the_maximum_of_an_element_and_its_derivatives(shape, I):
     sampled = _q(shape, b, pts).max()
     assert sampled <= m + 1e-14 and m - sampled < 1e-4 * abs(m)        # measured 2e-6 relative (grid)
     assert np.all(L[list(I)] > 0) and abs(_q(shape, b, L[None, :])[0] - m) < 1e-14
-    f = lambda bb: _maximum(shape, bb, I)[0]
+    f = lambda bb: element_maximum(shape, bb, I)[0]
     for _ in range(3):
         db = rng.standard_normal(len(b))
         h = 1e-5
@@ -389,17 +389,17 @@ def test_a_segment_flat_to_rounding_has_no_maximum_rather_than_a_singular_system
     LinAlgError escaped the solve): no maximum (None), never an exception or a non-finite point, whatever the
     kernels; where a solve does fail (forced here), None too."""
     b = np.array([-2.77555756e-16, -3.74700271e-16, -4.71844785e-16])       # the coefficients found there
-    out = _maximum(SEGMENT, b, (0, 1))
+    out = element_maximum(SEGMENT, b, (0, 1))
     assert out is None or (np.isfinite(out[0]) and np.isfinite(out[1]).all() and np.isfinite(out[2]).all())
 
     def singular(*args, **kwargs):
         raise np.linalg.LinAlgError("Singular matrix")
 
     concave = np.array([0.0, 1.0, 0.0])                                        # q = 2 t (1 - t): max 1/2 at 1/2
-    m, L, _ = _maximum(SEGMENT, concave, (0, 1))
+    m, L, _ = element_maximum(SEGMENT, concave, (0, 1))
     assert m == pytest.approx(0.5, abs=1e-15) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
     monkeypatch.setattr(np.linalg, "solve", singular)
-    assert _maximum(SEGMENT, concave, (0, 1)) is None
+    assert element_maximum(SEGMENT, concave, (0, 1)) is None
 
 
 def _one_segment():
@@ -440,9 +440,9 @@ def test_a_segment_flat_to_the_finish_tolerance_is_a_whole_contact():
     segment is in contact as a whole (vertex rows), not a tangency whose curvature 1/rounding makes the Newton
     system singular to rounding; a true curvature well above it still has its maximum."""
     rounding = np.array([0.0, 5.55111512e-17, 0.0])
-    assert _maximum(SEGMENT, rounding, (0, 1)) is not None                 # negative definite by its signs alone
-    assert _maximum(SEGMENT, rounding, (0, 1), flat=1e-11 * 3.9) is None
-    m, L, _ = _maximum(SEGMENT, np.array([0.0, 1e-9, 0.0]), (0, 1), flat=1e-11 * 3.9)
+    assert element_maximum(SEGMENT, rounding, (0, 1)) is not None          # negative definite by its signs alone
+    assert element_maximum(SEGMENT, rounding, (0, 1), flat=1e-11 * 3.9) is None
+    m, L, _ = element_maximum(SEGMENT, np.array([0.0, 1e-9, 0.0]), (0, 1), flat=1e-11 * 3.9)
     assert m == pytest.approx(5e-10, rel=1e-12) and L[:2] == pytest.approx([0.5, 0.5], abs=1e-15)
 
 
@@ -459,7 +459,7 @@ def test_the_maximiser_backtracks_a_newton_step_that_overshoots_into_the_convex_
         f = A * np.exp(-0.5 * u * u)
         return -f, np.array([0.0, u / s * f]), np.diag([0.0, (1 - u * u) / s ** 2 * f])
 
-    m, L, M = _maximum(SEGMENT, np.zeros(3), (0, 1), delta=delta)
+    m, L, M = element_maximum(SEGMENT, np.zeros(3), (0, 1), delta=delta)
     assert L[:2] == pytest.approx([1 - c, c], abs=1e-12) and m == pytest.approx(A, rel=1e-14)
     assert np.isfinite(M).all()
 

@@ -156,7 +156,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     return raw
 
 
-def _mixed_system(problem):
+def linear_mixed_system(problem):
     """(A, F, G, widths) of the sparse mixed system (26) of ``problem`` (a linear material, scaled): A the
     bodies' quasi-definite blocks and a zero block for the obstacles' translations, F the loads
     (:func:`~cvxcontact.backends.mixed.mixed_system`)."""
@@ -227,7 +227,7 @@ def _dependent_finish(problem, raw, x0, z0, r0, timings):
     ``declined``."""
     t0 = time.perf_counter()
     law, g = problem.scaled_law, problem.g
-    A, F, G, widths = _mixed_system(problem)
+    A, F, G, widths = linear_mixed_system(problem)
     free = ~problem.held_rows
     z0 = np.where(free, z0, 0.0)
     start = _limit_start(law, problem.weights * law.pressure(r0) + z0, z0, r0, g) & free

@@ -33,7 +33,7 @@ __all__ = ["full", "condensed", "mixed", "mixed_full", "mixed_condensed", "conic
            "cone_forces", "mixed_program", "mixed_forces"]
 
 
-def _width(problem) -> int:
+def cone_width(problem) -> int:
     """Bernstein coefficients per element of the problem's cones: 3 (segments, 2D), 6 (triangles, 3D)."""
     return problem.lines.cone[1].shape[1]
 
@@ -43,28 +43,28 @@ def _mixed_width(problem) -> int:
     return problem.lines.mixed_bernstein[1].shape[1]
 
 
-def _cone_force(problem, beta):
+def cone_nodal_force(problem, beta):
     """r = B^T beta: the nodal contact force on X_h of the conic condition (scaled)."""
     return problem.lines.cone[0].T @ beta.ravel()
 
 
-def _held_beta(problem, beta):
+def held_beta(problem, beta):
     """beta with the cone rows no unknown moves at their least admissible value (§8, "Held nodes")."""
-    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap, _width(problem))
+    return held_cone(beta, problem.lines.cone[0].tocsr(), problem.held_rows, problem.gap, cone_width(problem))
 
 
 def cone_program(problem) -> ContactModel:
     """The full program of the P2 "everywhere" cones (the term :class:`~cvxcontact.discrete.terms.EverywhereCones`;
     :mod:`cvxcontact.backends.conic`, docs/formulation.md §8)."""
     return ContactModel(list(problem.blocks), problem.E, problem.g, bernstein=problem.lines.cone[0],
-                        translations=list(problem.translations), width=_width(problem))
+                        translations=list(problem.translations), width=cone_width(problem))
 
 
 def cone_forces(problem, model, u, taus) -> tuple:
     """(y, None, beta) of the solved :func:`cone_program`: the Bernstein duals beta (the held elements' at their
     least admissible value) and the nodal force y = B^T beta on X_h (E = I; beside a nodal pair with friction, on
     E's rows, :meth:`~cvxcontact.contact.quadratic.QuadraticStack.row_cone`); scaled."""
-    B, w = problem.lines.cone[0], _width(problem)
+    B, w = problem.lines.cone[0], cone_width(problem)
     beta = held_cone(bernstein_duals(model.cone, model.row, w), B, problem.held_rows, problem.g, w)
     return B.T @ beta.ravel(), None, beta
 
@@ -97,9 +97,9 @@ def full(problem, cache, settings, timings) -> RawResult:
     timings["model"] = time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings,
                                conic_options(settings.solver, settings.options, quadratic=problem.quadratic))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, _width(problem)))
+    beta = held_beta(problem, bernstein_duals(model.cone, model.row, cone_width(problem)))
     raw = RawResult(u=[v.value for v in model.u], phi=[v.value if v is not None else None for v in model.phi],
-                    y=_cone_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
+                    y=cone_nodal_force(problem, beta), beta=beta, program=model.problem, iterations=iterations,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], method="full")
     if not problem.quadratic:
         if settings.polish:
@@ -138,7 +138,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     sweeps = [reduction.forward(k, quasi_definite_rhs(b)) for k, b in enumerate(problem.blocks)]
     v0 = [c.unconstrained(f) for c, f in zip(cond, sweeps)]
     B = problem.lines.cone[0]
-    w = _width(problem)
+    w = cone_width(problem)
     free = (B @ (sum(c.jump @ v for c, v in zip(cond, v0)) - problem.g)).reshape(-1, w)
     departure = problem.departure              # a curved obstacle: its own gap, not the interpolant's
     if ((bernstein_max(free) if departure is None else departure.argmax(free)[0]) <= 0.0).all():
@@ -151,7 +151,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
                          polished=True, route=Route.NO_CONTACT, method="condensed",
                          pairing=None if departure is None else np.zeros(B.shape[0] // w))
     timings["model"] = time.perf_counter() - t0
-    if cache.start is not None and settings.warm_start and settings.polish and _width(problem) == 3:
+    if cache.start is not None and settings.warm_start and settings.polish and cone_width(problem) == 3:
         # a state from another mesh (cvxcontact.backends.start): the cuts from its point forces, no program
         raw = RawResult(u=[], phi=[], y=np.zeros(B.shape[1]), route=Route.WARM_START, method="condensed")
         finish_cuts(problem, cache, settings, timings, raw, seeds=cone_seeds(problem, cache.start))
@@ -162,8 +162,8 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     model = ConicInterfaceModel(cond, [c.stiffness @ v for c, v in zip(cond, v0)], B, problem.g, w)
     timings["model"] = timings.get("model", 0.0) + time.perf_counter() - t0
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
-    r = _cone_force(problem, beta)
+    beta = held_beta(problem, bernstein_duals(model.cone, model.row, w))
+    r = cone_nodal_force(problem, beta)
     u, phi = split(cond, [c.back_substitute(f, r) for c, f in zip(cond, sweeps)], problem.blocks)
     raw = RawResult(u=u, phi=phi, y=r, beta=beta, program=model.problem, iterations=iterations,
                     method="condensed")
@@ -187,7 +187,7 @@ def certify(problem, cache, settings, timings, raw) -> None:
     B = problem.lines.cone[0]
     if not raw.polished:
         raw.beta = dual_cone_point(raw.beta)
-        raw.y = _cone_force(problem, raw.beta)
+        raw.y = cone_nodal_force(problem, raw.beta)
         raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     departure = problem.departure
     if departure is not None and raw.pairing is None:
@@ -207,12 +207,12 @@ def finish_cuts(problem, cache, settings, timings, raw, seeds=None) -> None:
     _, _, d = reduction.apply(problem, timings)
     B = problem.lines.cone[0]
     if seeds is None:
-        segment, t = seed_points(B, raw.beta, width=_width(problem), around=SEED_SPREAD)
+        segment, t = seed_points(B, raw.beta, width=cone_width(problem), around=SEED_SPREAD)
         y0 = seed_forces(segment, t, raw.beta)
     else:
         segment, t, y0 = seeds
     out = interface_cuts(reduction.W, d, problem.g, B, segment, t, timings, y0=y0,
-                         width=_width(problem), factors=reduction.psd_factors, departure=problem.departure)
+                         width=cone_width(problem), factors=reduction.psd_factors, departure=problem.departure)
     if isinstance(out, Declined):
         raw.declined = out
         return
@@ -270,7 +270,7 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
     # balance the cuts' fields, ||x - x_cuts|| away: 2.7e-10, 3.5e-10); the non-negative least squares at
     # Newton's and the cuts' points together (3e-16, but a force may sit where q(x) < 0), and at those of them
     # where q(x) is 0 to Newton's tolerance (complementary, balance 1e-15 ... 3e-14)
-    U = segment_scales(B, abs(G) @ np.abs(x) + np.abs(problem.g), _width(problem))
+    U = segment_scales(B, abs(G) @ np.abs(x) + np.abs(problem.g), cone_width(problem))
     slack = G @ x - problem.g
     departure = problem.departure
 
@@ -298,7 +298,7 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
         return max(balance(P.T @ y), float(products.max(initial=0.0)))
 
-    seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), B, _width(problem), G, x, problem.g, departure,
+    seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), B, cone_width(problem), G, x, problem.g, departure,
                                 least_squares, kkt_residual)
     r = P.T @ y
     bound = energy_bound(reduction.W, d, B, raw.beta, problem.held_rows, factors=reduction.psd_factors,
@@ -307,7 +307,7 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
         return
     v = system.split(x)
     raw.u, raw.phi = reduction.invert_gamma(problem, v, timings)
-    S = B.shape[0] // _width(problem)
+    S = B.shape[0] // cone_width(problem)
     raw.y, raw.beta, raw.points = r, point_duals(S, seg, t, y), (seg, t, y)
     _, raw.active = point_read_back(B, seg, t, y, y > 0)
     raw.pairing = None if problem.departure is None else problem.departure.pairing(S, seg, t, y)

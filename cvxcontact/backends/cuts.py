@@ -57,7 +57,7 @@ triangles, singular at round 11 after 3.0e-11; against the sphere's own distance
 1.5e-10, then the worst point alone went on to 7.4e-12 in three more rounds)."""
 
 
-def _unique_rows(P) -> np.ndarray:
+def unique_rows(P) -> np.ndarray:
     """Indices of the first occurrence of every distinct row of the sparse ``P`` (rows with at most 3 entries,
     identical floats: the same node reached from two segments)."""
     P = sp.csr_matrix(P)
@@ -110,7 +110,7 @@ def seed_points(B, beta=None, force_floor: float = 1e-6, width: int = 3, around=
             ok = (near > 0) & (near < 1)
             seg = np.concatenate([seg, at[ok]])
             t = np.concatenate([t, near[ok]])
-    keep = _unique_rows(point_rows(B, seg, t))
+    keep = unique_rows(point_rows(B, seg, t))
     return seg[keep], t[keep]
 
 

@@ -143,7 +143,7 @@ def symmetric_lu(K):
     K = sp.csc_matrix(K)
     if abs(K - K.T).max() > 1e-12 * abs(K).max():        # symmetric to rounding: PARDISO reads the upper part
         return None
-    Kd = _diagonal_stored(K.tocoo(), sp.csc_matrix)
+    Kd = diagonal_stored(K.tocoo(), sp.csc_matrix)
     try:
         factor = PardisoSymmetric(Kd).factor(Kd)
     except SolverError:
@@ -154,7 +154,7 @@ def symmetric_lu(K):
     return factor
 
 
-def _diagonal_stored(coo, fmt):
+def diagonal_stored(coo, fmt):
     """The square ``coo`` matrix in the format ``fmt`` (sp.csr_matrix, sp.csc_matrix) with every diagonal entry
     stored, zeros included (PARDISO requires it), duplicates summed and indices sorted."""
     n = coo.shape[0]
@@ -419,7 +419,7 @@ class PardisoFactorization(Factorization):
         n, m = S.shape[0], len(gamma)
         if m == 0 or m == n:
             raise SolverError("the pardiso adapter needs at least one interior and one contact dof")
-        U = _diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
+        U = diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
         self._a = np.ascontiguousarray(U.data, dtype=np.float64)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)

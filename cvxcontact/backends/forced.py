@@ -106,17 +106,17 @@ def cones(problem, cache, settings, timings) -> RawResult:
     with the translations, then the accumulated cuts and Newton at the tangency points on the condensed mixed
     system (:func:`~cvxcontact.backends.cones.finish_cuts_mixed`), the fields by back-substitution. No
     certificate (the energy bound has no translations)."""
-    from .cones import _cone_force, _held_beta, _width, finish_cuts_mixed
+    from .cones import cone_nodal_force, cone_width, finish_cuts_mixed, held_beta
     from .conic import bernstein_duals
 
     reduction = condensation(problem, cache, settings, timings)
     blocks = gamma_blocks(reduction, _loads(problem, reduction, timings))
-    w = _width(problem)
+    w = cone_width(problem)
     model = _program(problem, blocks, settings, timings, bernstein=problem.lines.cone[0], width=w)
     iterations = timed_program(model.problem, settings, timings, conic_options(settings.solver, settings.options))
-    beta = _held_beta(problem, bernstein_duals(model.cone, model.row, w))
-    raw = RawResult(u=[v.value for v in model.u], phi=[None] * len(blocks), y=_cone_force(problem, beta), beta=beta,
-                    program=model.problem, iterations=iterations, method="condensed",
+    beta = held_beta(problem, bernstein_duals(model.cone, model.row, w))
+    raw = RawResult(u=[v.value for v in model.u], phi=[None] * len(blocks), y=cone_nodal_force(problem, beta),
+                    beta=beta, program=model.problem, iterations=iterations, method="condensed",
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t])
     if settings.polish:
         finish_cuts_mixed(problem, timings, raw, blocks=blocks)

@@ -125,7 +125,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     rows' forces ``y``, the tangential row forces ``raw.tangential`` (scaled) from its duals, the capacities
     of the iterate answered ``raw.capacity`` and the fixed point's relative changes ``raw.fixed_point``; then
     (``polish``) the exact finish, :func:`exact_finish`."""
-    raw, unsettled = _interior(problem, settings, timings, _row_forces)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_row_forces)
     raw.active = interior_active(problem, raw)
     if settings.polish:
         exact_finish(problem, raw, timings)
@@ -173,7 +173,7 @@ def conic_full(problem, cache, settings, timings) -> RawResult:
     (``polish``)
     :func:`finish_on_nodes`; where it does not apply, the interior point's answer with ``raw.declined`` saying
     why (the read-back checks it: the conic checks and the friction law's)."""
-    raw, unsettled = _interior(problem, settings, timings, _cone_forces)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_cone_forces)
     if settings.polish:
         raw = finish_on_nodes(problem, raw, timings)
     else:
@@ -220,7 +220,7 @@ def finish_on_nodes(problem, raw, timings) -> RawResult:
         out = _cuts(problem, raw, timings, segment, t)
         if isinstance(out, Declined):             # the tangency points from the interior point's structure
             done = _tangency_polish(problem, replace(raw, points=None), timings, capacity, INTERIOR_SLIP)
-            out = out if done is None or isinstance(done, Declined) else done
+            out = out if isinstance(done, Declined) else done
         elif _cut(problem, out):
             out = _kept(problem, out, _tangency_polish(problem, out, timings, capacity))
     if isinstance(out, Declined):
@@ -279,8 +279,8 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
-    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer (3D:
-    labelled declined where a polish declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its
+    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer
+    (labelled declined where a polish declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its
     capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
     first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
     declined (then None where the fixed point does not settle). The answer's ``fixed_point``: ``before`` (the
@@ -290,7 +290,7 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     for _ in range(most):
         done = _tangency_polish(problem, trial, timings, capacity,
                                 SLIP_ROUNDING if slip_floor is None or changes else slip_floor)
-        if done is None or isinstance(done, Declined):
+        if isinstance(done, Declined):
             return None if cuts is None else _kept(problem, cuts, done)
         new = problem.term.data.capacities(done.y)
         changes.append(_change(new, capacity))
@@ -324,6 +324,10 @@ BALANCE_ROUNDING = 1e-10
 of its largest term (measured at most 1e-15; a pair under a nodal condition beside the cones, whose rows the
 tangency points do not carry, missed it by 2.4e-2 of the load and is left to the cuts' answer)."""
 
+POLISH_2D = "the Newton at the tangency points after the friction cuts"
+"""The finish a decline of the 2D :func:`_tangency_polish` names (3D:
+:data:`~cvxcontact.backends.frictiontangency.WHERE`)."""
+
 SLIP_ROUNDING = 1e-10
 """A friction row of the cuts' answer whose slip is at most this times the largest displacement is stuck in the
 Newton at the tangency points (:func:`_tangency_polish`); the others slip along their slip's sign."""
@@ -340,9 +344,10 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     tangency points (:func:`~cvxcontact.backends.tangency.tangency_newton`, docs/formulation.md §18) on (26)
     with those loads and rows finishes it, from the cuts' points; accepted where its answer keeps the partition
     (|mu_a| <= c_a on the stuck rows, the slip of every slipping row along its force: else the rows that break it
-    change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces, else
-    None (the cuts' answer stands). Returns the finished answer (a new :class:`RawResult`) or None (3D: the
-    :class:`~cvxcontact.backends.finish.Declined` saying why, :func:`~cvxcontact.backends.frictiontangency.kept`).
+    change side and it runs again, at most :data:`PARTITIONS` times) and balances (26) with its own forces.
+    Returns the finished answer (a new :class:`RawResult`) or the :class:`~cvxcontact.backends.finish.Declined`
+    saying why (2D and 3D: the cuts' answer stands, labelled by
+    :func:`~cvxcontact.backends.frictiontangency.kept`).
 
     From the interior point's answer (where the cuts declined: ``trial.points`` None, its Bernstein duals the
     contact's structure, as the frictionless cones' :func:`~cvxcontact.backends.cones.finish_cuts_mixed` turns
@@ -381,7 +386,7 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
         if isinstance(out, Declined):
             log.info("the Newton at the tangency points after the friction cuts declined: %s", out)
             timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
-            return None
+            return Declined(out.stop, f"{POLISH_2D} declined ({out})")
         x0 = out["x"][:n]
         mu = force.copy()
         mu[stuck] = out["x"][n:]
@@ -398,14 +403,14 @@ def _tangency_polish(problem, trial, timings, capacity, slip_floor=None):
     else:
         timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
         log.info("the Newton at the tangency points after the friction cuts: the stick-slip partition did not settle")
-        return None
+        return Declined(Stop.MAX_ITER, f"{POLISH_2D}: the stick-slip partition did not settle in {PARTITIONS} tries")
     timings["polish"] = timings.get("polish", 0.0) + time.perf_counter() - t0
     x = x0
     y = np.asarray(out["nodal"], dtype=float)
     inner, terms = (A @ x - F, abs(A) @ np.abs(x) + np.abs(F)) if op.linear else (op.gradient(x), op.magnitude(x))
     if not balances(inner, terms, G, y, S, mu, BALANCE_ROUNDING):      # (26) with the answer's own forces
         log.info("the Newton at the tangency points after the friction cuts: its forces do not balance (26)")
-        return None
+        return Declined(Stop.SIGNS, f"{POLISH_2D}: its forces do not balance (26)")
     done = replace(trial)
     done.u, done.phi, done.taus = unstacked(problem, x, widths)
     done.y, done.beta, done.active, done.pairing = out["nodal"], out["beta"], out["active"], out["pairing"]
@@ -470,7 +475,7 @@ def row_forces(problem, model: ContactModel, u, taus) -> tuple:
     return np.asarray(model.contact.dual_value, dtype=float).ravel(), None, None
 
 
-def _row_forces(problem, model):
+def normal_row_forces(problem, model):
     """(y, None): the normal row forces of the solved program (scaled), as its term reads them (Signorini rows:
     their multipliers; beside a compliance law w p(r) + z on every row, :func:`~cvxcontact.backends.compliance.
     compliance_forces`)."""
@@ -479,14 +484,14 @@ def _row_forces(problem, model):
     return problem.term.program_forces(problem, model, values, taus)[0], None
 
 
-def _cone_forces(problem, model):
+def normal_cone_forces(problem, model):
     """(r, beta): the cones' nodal force r = B^T beta on X_h and their Bernstein duals beta (the held elements' at
     their least admissible value; :func:`~cvxcontact.backends.cones.cone_forces`), scaled."""
     y, _, beta = problem.term.program_forces(problem, model, None, None)
     return y, beta
 
 
-def _interior(problem, settings, timings, normal, model=None, extra=(), objective=None):
+def interior_answer(problem, settings, timings, normal, model=None, extra=(), objective=None):
     """(raw, unsettled): the interior point's answer of the full program with the friction energy (Tresca's, or
     Coulomb's fixed point), ``normal(problem, model) -> (y, beta)`` reading the normal forces of the solved
     program; ``unsettled`` the words of a :class:`~cvxcontact.errors.FixedPointWarning` (None: converged or

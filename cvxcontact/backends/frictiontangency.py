@@ -150,16 +150,19 @@ the finish closed is 0 to rounding, measured at most 5.2e-31; the open nodes of 
 least 2.4e-8 below it)."""
 
 
+CUTS_KEPT = "cut rounds' answer"
+"""What :func:`kept` keeps where the polish declined (:attr:`~cvxcontact.backends.result.RawResult.kept`)."""
+
+
 def kept(problem, cuts, done):
-    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points: the polish's answer
-    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`, 3D) and the
-    contact ends inside an element (a cut point with a positive force on a triangle whose P2 nodes are not all
-    closed, :data:`CLOSED`: else the slack vanishes on each pressed triangle, q quadratic and 0 at its six nodes, and
-    the cuts' answer is exact), the cuts' answer labelled as a finish that declined: not polished, the interior
-    point's route, ``declined`` the polish's reason (the read-back reports it, the solve warns; module docstring);
-    ``done`` None (2D's polish declined), the cuts' answer as it is."""
-    if done is None:
-        return cuts
+    """The answer where the cuts' answer ``cuts`` went to the polish at the tangency points (2D:
+    :func:`~cvxcontact.backends.friction._tangency_polish`, 3D: :func:`tangency_polish`): the polish's answer
+    ``done``; where it declined (``done`` a :class:`~cvxcontact.backends.finish.declined.Declined`) and the
+    contact ends inside an element (a cut point with a positive force on an element, a segment in 2D, a triangle in
+    3D, whose P2 nodes are not all closed, :data:`CLOSED`: else the slack vanishes on each pressed element, q
+    quadratic and 0 at its three or six nodes, and the cuts' answer is exact), the cuts' answer labelled as a finish
+    that declined: not polished, the interior point's route, ``declined`` the polish's reason (the read-back reports
+    it, the solve warns; module docstring); else the cuts' answer as it is."""
     if not isinstance(done, Declined):
         return done
     cells = problem.lines.cone[1]
@@ -171,5 +174,5 @@ def kept(problem, cuts, done):
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in cuts.u] + [np.finfo(float).tiny])
     if (np.abs(jump - problem.g)[cells[pressed]] <= CLOSED * U).all():
         return cuts
-    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION,
-                   declined=done.within("the cut rounds' answer is kept, not finished at the exact tangency points"))
+    return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION, kept=CUTS_KEPT,
+                   declined=done.within(f"the {CUTS_KEPT} is kept, not finished at the exact tangency points"))

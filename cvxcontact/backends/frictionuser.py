@@ -24,12 +24,12 @@ from ..errors import FixedPointWarning
 from .finish import Declined, Stop
 from .friction import (
     UNFINISHED_CONES,
-    _cone_forces,
-    _interior,
-    _row_forces,
     exact_finish,
     finish_on_nodes,
     interior_active,
+    interior_answer,
+    normal_cone_forces,
+    normal_row_forces,
 )
 
 __all__ = ["beside_user_terms", "cones_beside_user_terms", "tangential_force"]
@@ -48,7 +48,8 @@ def beside_user_terms(problem, model, constraints, objective, settings, timings,
     ``admits(raw)`` holds for the finished answer; ``force`` the friction's generalised force on the stacked
     unknowns (:func:`tangential_force`). The terms :class:`~cvxcontact.discrete.terms.TrescaFriction` and
     :class:`~cvxcontact.discrete.terms.FrictionBesideCompliance`."""
-    raw, unsettled = _interior(problem, settings, timings, _row_forces, model, tuple(constraints), objective)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_row_forces, model, tuple(constraints),
+                                     objective)
     raw.active = interior_active(problem, raw)
     return _finished(problem, raw, unsettled, objective, settings, admits,
                      lambda r: exact_finish(problem, r, timings))
@@ -58,7 +59,8 @@ def cones_beside_user_terms(problem, model, constraints, objective, settings, ti
     """(raw, force) as :func:`beside_user_terms` on the P2 "gamma3" cones' program with a friction law (the term
     :class:`~cvxcontact.discrete.terms.ConesWithFriction`): its normal forces the cones' nodal force r = B^T beta,
     finished by :func:`~cvxcontact.backends.friction.finish_on_nodes`."""
-    raw, unsettled = _interior(problem, settings, timings, _cone_forces, model, tuple(constraints), objective)
+    raw, unsettled = interior_answer(problem, settings, timings, normal_cone_forces, model, tuple(constraints),
+                                     objective)
     if not settings.polish:
         raw.declined = Declined(Stop.NOT_POSED, UNFINISHED_CONES)
     return _finished(problem, raw, unsettled, objective, settings, admits,

@@ -19,7 +19,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.laws import RowLaws, Signorini
-from .compliance import _mixed_system, dependent_newton
+from .compliance import dependent_newton, linear_mixed_system
 from .cuts import (
     accumulate_cuts,
     nodal_slack,
@@ -55,7 +55,7 @@ def finish_cuts_compliance(problem, timings, raw, B) -> bool:
     t0 = time.perf_counter()
     width = int(np.shape(raw.beta)[1])
     B = sp.csr_matrix(B)
-    A, F, G, widths = _mixed_system(problem)
+    A, F, G, widths = linear_mixed_system(problem)
     rows = np.flatnonzero(~np.asarray(law.cone))             # the law's rows and the nodal pairs' rows
     off = law.off_cone()                                     # the law's rows (a cone pair's without its limit)
     laws, counts = list(off.laws) + [Signorini()], list(off.counts)

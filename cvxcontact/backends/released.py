@@ -19,7 +19,7 @@ from .factor import (
     Factorization,
     Forward,
     PardisoInterior,
-    _diagonal_stored,
+    diagonal_stored,
     pardiso_available,
 )
 
@@ -76,7 +76,7 @@ class Released(Factorization):
         self.interior = np.flatnonzero(interior)
         S = sp.csr_matrix(S)[self.interior]
         self._S_IG = S[:, self.gamma].tocsr()
-        self._S_II = _diagonal_stored(sp.triu(S[:, self.interior], format="coo"), sp.csr_matrix)   # upper only
+        self._S_II = diagonal_stored(sp.triu(S[:, self.interior], format="coo"), sp.csr_matrix)   # upper only
         perm = getattr(factor, "perm", None)            # SuperLU's order: the interior dofs first, Gamma last
         self.order = None
         if perm is not None:

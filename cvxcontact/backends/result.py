@@ -15,7 +15,7 @@ import numpy as np
 
 from .finish.declined import Declined
 
-__all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache"]
+__all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache", "INTERIOR_POINT_KEPT", "declined_words"]
 
 
 class Status(StrEnum):
@@ -117,6 +117,10 @@ class Settings:
     factorization: str = "auto"
 
 
+INTERIOR_POINT_KEPT = "interior-point answer"
+"""What a declined finish keeps unless its caller names another answer (:attr:`RawResult.kept`)."""
+
+
 @dataclass(eq=False)
 class RawResult:
     """What one backend solve returns, scaled (docs/formulation.md §6), read back once into a Solution.
@@ -169,6 +173,19 @@ class RawResult:
     """Against a curved obstacle's true gap (docs/formulation.md §8, "Rigid obstacles"): per element, the
     finish's point forces' sum y_p delta(x_p) (scaled), so that their pairing with the true slack is
     beta . b - pairing; None where the answer's duals are no such point forces (or there is no departure)."""
+    kept: str = INTERIOR_POINT_KEPT
+    """Where a finish was declined (``declined``), what the arrays are, in the words of the warning
+    (:func:`declined_words`): the interior point's answer, or the answer the caller that labels the decline keeps
+    and names (the cut rounds' answer where the polish at the tangency points declined,
+    :func:`~cvxcontact.backends.frictiontangency.kept`)."""
+
+
+def declined_words(subject: str, condition, raw: RawResult) -> str:
+    """The words of the :class:`~cvxcontact.errors.ResidualWarning` of a declined exact finish (``cc.solve`` and
+    ``cc.Model``): ``subject`` (the scene, or the user model of a scene) under ``condition``, why
+    (``raw.declined``) and what is kept (``raw.kept``)."""
+    return (f"the exact finish of {subject} ({condition}) was declined ({raw.declined}); the {raw.kept} is kept "
+            "(sol.polished is False)")
 
 
 class Cache:

@@ -24,7 +24,7 @@ touching triangles no ridge, their form's second eigenvalue 5e-2 .. 0.35 of the 
 an isolated point of an edge or of its inside, and there the condition is the tangency finish's row m(Q) = 0 (the
 maximum of q over that sub-simplex, smooth where q is strictly concave on it; its gradient the point row at the
 maximiser, its second derivative the curvature term mu_c H_c in the Hessian: :func:`~cvxcontact.backends.tangency.
-_maximum`), posed in the same Newton system. A touching point on an edge whose P2 nodes are all the ridges' (a
+element_maximum`), posed in the same Newton system. A touching point on an edge whose P2 nodes are all the ridges' (a
 triangle beside a ridge touching at the ridge's zero crossing on their common edge) has no row of its own: q there
 is -(w_h)^2 already, and that row would depend on the ridges'. A triangle may touch at two points (on two edges).
 
@@ -46,7 +46,7 @@ from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, point_rows
 from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
-from .tangency import _maximum, node_rows
+from .tangency import element_maximum, node_rows
 
 __all__ = ["ridge_newton"]
 
@@ -80,13 +80,13 @@ EDGES = ((0, 1, 3), (1, 2, 4), (2, 0, 5))
 
 def _point_rows(points, D, d, z, shape):
     """The tangency rows of the point contacts ``points`` ((s, I) each) at ``z`` (:func:`~cvxcontact.backends.
-    tangency._maximum`, docs/formulation.md §18): (C, m, H, where) the rows' gradients (sparse), their values
+    tangency.element_maximum`, docs/formulation.md §18): (C, m, H, where) the rows' gradients (sparse), their values
     m(Q), the second derivatives' matrices (-2 J^T M J per row, the multipliers' weights not applied) and the
     maximisers; or the index of the first point whose sub-simplex's slack is not strictly concave there."""
     rows, vals, hess, where = [], [], [], []
     for c, (s, I) in enumerate(points):
         Ds = D[6 * s:6 * s + 6]
-        out = _maximum(shape, Ds @ z - d[6 * s:6 * s + 6], I)
+        out = element_maximum(shape, Ds @ z - d[6 * s:6 * s + 6], I)
         if out is None:
             return c
         m, L, M = out
@@ -112,7 +112,7 @@ def _touching_points(cells, b, candidates, covered, reach) -> dict:
             own = [cells[s, i] for i in I] + [cells[s, c] for i, j, c in EDGES if i in I and j in I]
             if {int(v) for v in own} <= covered:
                 continue
-            out = _maximum(shape, b[s], I)
+            out = element_maximum(shape, b[s], I)
             if out is not None and out[0] >= -reach and (out[1][list(I)] > 1e-6).all():
                 points.setdefault(tuple(sorted(int(cells[s, i]) for i in I)), (int(s), I))
     return points

@@ -33,7 +33,7 @@ from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 from scipy.spatial import QhullError
 
 from ..contact.bernstein import point_rows
-from .cuts import _unique_rows, seed_points
+from .cuts import seed_points, unique_rows
 
 __all__ = ["ContactState", "contact_state", "point_loads", "deferred_state", "start_active", "cone_seeds", "AROUND"]
 
@@ -178,5 +178,5 @@ def cone_seeds(problem, state: ContactState):
     seg = np.concatenate(seg + [nodes_seg]).astype(int)
     t = np.concatenate(t + [nodes_t])
     y = np.concatenate(y + [np.zeros(len(nodes_t))])
-    keep = _unique_rows(point_rows(B, seg, t))
+    keep = unique_rows(point_rows(B, seg, t))
     return seg[keep], t[keep], y[keep]

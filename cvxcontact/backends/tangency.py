@@ -46,7 +46,7 @@ from ..contact.bernstein import bernstein_argmax, element
 from .cuts import point_duals, point_read_back, segment_scales
 from .factor import lu as dense_or_sparse_lu
 from .finish.declined import Declined, Stop
-from .finish.rows import _row_scale
+from .finish.rows import row_scale
 
 __all__ = ["node_rows", "tangency_newton"]
 
@@ -117,18 +117,18 @@ def _residual(terms, G, force, C, lam, x, r1, r2, c0) -> float:
     the sizes of its terms, ``terms`` + |G^T| |force| + |C^T| |lam| (``terms``: |A| |x| + |F|, or the sizes of the
     terms of a non-quadratic energy's gradient, :meth:`~cvxcontact.backends.mixed.MixedEnergy.magnitude`, in place
     of A x - F), and the rows' residual r2 = C x - c0 over
-    |C| |x| + |c0| (:func:`~cvxcontact.backends.finish.rows._row_scale`), each block's largest over its largest
+    |C| |x| + |c0| (:func:`~cvxcontact.backends.finish.rows.row_scale`), each block's largest over its largest
     scale (normwise: a row whose own terms are small still carries the rounding of the unknowns it reads).
     Scales that add the terms up do not vanish where their sum cancels (closed rows whose nodes move with the
     obstacle: |C x| and |c0| are then 0 to rounding, and the residual over them read 1.0 at rounding)."""
     tiny = np.finfo(float).tiny
-    s1 = _row_scale(abs(sp.hstack([G.T, C.T]).tocsr()), np.r_[force, lam], terms)
-    s2 = _row_scale(abs(C), x, c0) if C.shape[0] else np.ones(1)
+    s1 = row_scale(abs(sp.hstack([G.T, C.T]).tocsr()), np.r_[force, lam], terms)
+    s2 = row_scale(abs(C), x, c0) if C.shape[0] else np.ones(1)
     return max(float(np.abs(r1).max(initial=0.0)) / max(float(s1.max(initial=0.0)), tiny),
                float(np.abs(r2).max(initial=0.0)) / max(float(s2.max(initial=0.0)), tiny))
 
 
-def _maximum(shape, b, I, delta=None, start=None, flat: float = 0.0):
+def element_maximum(shape, b, I, delta=None, start=None, flat: float = 0.0):
     """(m, L*, M): the maximum of q over the sub-simplex ``I`` of an element with coefficients ``b``, its
     maximiser (full barycentric), and M = T (T^T Q_II T)^-1 T^T (the second derivative's matrix, module
     docstring); None where Q_II is not negative definite on the tangent plane, or is so by the signs of
@@ -151,7 +151,7 @@ def _maximum(shape, b, I, delta=None, start=None, flat: float = 0.0):
 
 
 def _stationary(shape, b, I, delta=None, start=None, flat: float = 0.0):
-    """:func:`_maximum` without its guard against singular systems.
+    """:func:`element_maximum` without its guard against singular systems.
 
     ``delta(L)`` (L (k,) a full barycentric point): a curved obstacle's departure of its gap from the P2
     interpolant and its gradient and Hessian in L (:meth:`~cvxcontact.contact.truegap.GapDeparture.curvature`,
@@ -325,7 +325,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
 
     ``departure``: a curved obstacle's true gap on the cones' elements
     (:class:`~cvxcontact.contact.truegap.GapDeparture`, scaled): each element's maximum is then that of the true
-    slack q_h - delta (:func:`_maximum`), and the answer carries ``pairing`` (the point forces' sum y_p delta_p
+    slack q_h - delta (:func:`element_maximum`), and the answer carries ``pairing`` (the point forces' sum y_p delta_p
     per element).
 
     ``points``: (segment, t, y) point forces to start from instead of the Bernstein duals' structure (the
@@ -465,7 +465,7 @@ def tangency_newton(kkt, B, g, beta, x0, *, cone_gap=None, law=None, weights=Non
             for c, m_c in zip(tkeys, mu):
                 s, I, _ = tangencies[c]
                 el = elem(s)
-                out = _maximum(shape, el.coefficients(x), I,
+                out = element_maximum(shape, el.coefficients(x), I,
                                None if departure is None else (lambda L, s=s: departure.curvature(s, L)),
                                start=where.get(c), flat=flats[s])
                 if out is None:              # q flat or convex along I: the contact covers I (next round)

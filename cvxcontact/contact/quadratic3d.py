@@ -130,7 +130,7 @@ def _p2_rows(L, cells, n_cols) -> sp.csr_matrix:
     return M
 
 
-def _p2_mass(cells, area, n) -> sp.csr_matrix:
+def p2_mass(cells, area, n) -> sp.csr_matrix:
     """(n, n) P2 mass matrix (m^2) of triangles with node indices ``cells`` (c, 6) and ``area`` (c,) m^2."""
     rows = np.repeat(cells, 6, axis=1).ravel()
     cols = np.tile(cells, (1, 6)).ravel()
@@ -160,7 +160,7 @@ class _Trace6:
         self.offset, self.frame = linear.offset, linear.frame
         self.x = read_only(self.points @ np.asarray(linear.frame).T)
         self.k, self.part, self.body = linear.k, linear.part, linear.body
-        self.mass = _p2_mass(self.faces, _area(self.x[self.faces[:, :3]]), len(own)).tocsr()
+        self.mass = p2_mass(self.faces, _area(self.x[self.faces[:, :3]]), len(own)).tocsr()
 
 
 class QuadraticSurface(Represented):
@@ -203,7 +203,7 @@ class QuadraticSurface(Represented):
         V = np.asarray(ov.vertices)
         self.x = read_only(np.concatenate([V, 0.5 * (V[edges[:, 0]] + V[edges[:, 1]])]))
         self.cells = read_only(cells)
-        self.mass = _p2_mass(cells, _area(V[ov.triangles]), self.size).tocsr()
+        self.mass = p2_mass(cells, _area(V[ov.triangles]), self.size).tocsr()
         # each node of X_h in one overlay triangle t that has it; its value on body l from l's face cell_l[t]
         host = np.full(self.size, -1)
         position = np.zeros(self.size, dtype=int)
@@ -491,7 +491,7 @@ class QuadraticSurface(Represented):
         diagonal of the nodal weights on cut faces (:meth:`_cut_weights`): its row sums are Q^T w."""
         cells, area = self._law_triangles(condition)
         n = self._rows(condition)
-        return (_p2_mass(cells, area, n) + sp.diags(self._cut_weights(condition))).tocsr()
+        return (p2_mass(cells, area, n) + sp.diags(self._cut_weights(condition))).tocsr()
 
     def law_pressure(self, condition, force) -> np.ndarray:
         """The pressure at the rows of :meth:`evaluation` (Pa for ``force`` in N at the points of

@@ -411,12 +411,12 @@ def assemble_loads(body, matrices: BodySystem) -> BodySystem:
     mesh = body.mesh
     f = _body_load(mesh, body.body_force, 2)
     for tag, load in body.traction.items():
-        f += _edge_load(mesh, mesh.boundary(tag), load, 2)
+        f += edge_load(mesh, mesh.boundary(tag), load, 2)
     q = None
     if matrices.piezoelectric:
         q = _body_load(mesh, body.volume_charge, 1)
         for tag, load in body.surface_charge.items():
-            q -= _edge_load(mesh, mesh.boundary(tag), load, 1)
+            q -= edge_load(mesh, mesh.boundary(tag), load, 1)
     return lifted(body, matrices, f.ravel(), q, mesh)
 
 
@@ -504,7 +504,7 @@ def _body_load(mesh, load, ncomp):
     return out if ncomp > 1 else out[:, 0]
 
 
-def _edge_load(mesh, edges, load, ncomp):
+def edge_load(mesh, edges, load, ncomp):
     """Consistent nodal load of a surface density on ``edges``, 2-point Gauss rule."""
     a, b = mesh.points[edges[:, 0]], mesh.points[edges[:, 1]]
     length = np.linalg.norm(b - a, axis=1)

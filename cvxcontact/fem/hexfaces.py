@@ -155,7 +155,7 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
     smaller of its steps in the two reference coordinates at most ``tol``). Side 0 is tried first."""
     ov = itf.overlay
     P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    area = 0.5 * np.abs(plane_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
     cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
     reasons = []
     for fine in (0, 1):
@@ -163,7 +163,7 @@ def nesting(itf, tol: float = NESTED_TOL) -> Nesting:
         name = f"{trace.body.name} {trace.part!r}"
         corners = _corners(trace)
         X = np.asarray(trace.x)[corners]                                            # (k, 4, 2)
-        size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))           # the faces' areas
+        size = 0.5 * np.abs(plane_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))           # the faces' areas
         q, Q = cells[fine], cells[1 - fine]
         keep = area > tol * size[q]
         links = np.unique(np.column_stack([q[keep], Q[keep]]), axis=0)
@@ -216,7 +216,7 @@ def _overlap_hats(itf, side) -> np.ndarray:
     overlap's area on any faces. Positive where a hat meets the overlap: the law's weights at the constrained
     side's nodes where the jump is not bilinear on its faces (the other side's trace read at them)."""
     ov, trace = itf.overlay, itf.traces[side]
-    points, weights = _triangles_rule(ov, 4)
+    points, weights = triangles_rule(ov, 4)
     corners = _corners(trace)
     host = np.repeat(np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2, weights.shape[1])
     N = bilinear_rows(np.asarray(trace.x)[corners], corners, host, points, len(trace.nodes))
@@ -228,11 +228,11 @@ def _overlap_hats(itf, side) -> np.ndarray:
     return out
 
 
-def _triangles_rule(ov, degree: int):
+def triangles_rule(ov, degree: int):
     """(points (t m, 2), weights (t, m) m^2): the degree-``degree`` triangle rule on each triangle of the overlay
     ``ov`` (its points in the plane, triangle by triangle; its weights times the triangle's area)."""
     P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]                     # (t, 3, 2)
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    area = 0.5 * np.abs(plane_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
     L, w = simplex_rule(2, degree)
     return np.einsum("mi,tid->tmd", L, P).reshape(-1, 2), np.outer(area, w)
 
@@ -242,14 +242,14 @@ def _faces_on_overlap(itf, side, tol: float = NESTED_TOL) -> np.ndarray:
     meet its overlap: an overlay triangle of area above ``tol`` of the face's."""
     ov = itf.overlay
     P = np.asarray(ov.vertices)[np.asarray(ov.triangles)]
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    area = 0.5 * np.abs(plane_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
     X = np.asarray(itf.traces[side].x)[_corners(itf.traces[side])]
-    size = 0.5 * np.abs(_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))
+    size = 0.5 * np.abs(plane_cross(X[:, 2] - X[:, 0], X[:, 3] - X[:, 1]))
     q = np.asarray(ov.cell_a if side == 0 else ov.cell_b) // 2
     return np.unique(q[area > tol * size[q]])
 
 
-def _cross(a, b) -> np.ndarray:
+def plane_cross(a, b) -> np.ndarray:
     """The z component of the cross product of in-plane vectors ``a``, ``b`` (..., 2)."""
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
@@ -305,9 +305,9 @@ def pieces(itf, tol: float = NESTED_TOL) -> Pieces:
     ov = itf.overlay
     V = np.asarray(ov.vertices)
     P = V[np.asarray(ov.triangles)]
-    area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+    area = 0.5 * np.abs(plane_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
     X = [np.asarray(t.x)[_corners(t)] for t in itf.traces]                        # (k, 4, 2) per side
-    size = [0.5 * np.abs(_cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])) for x in X]
+    size = [0.5 * np.abs(plane_cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1])) for x in X]
     cells = (np.asarray(ov.cell_a) // 2, np.asarray(ov.cell_b) // 2)
     keep = (area > tol * size[0][cells[0]]) & (area > tol * size[1][cells[1]])
     links = np.unique(np.column_stack([cells[0][keep], cells[1][keep]]), axis=0)

@@ -21,18 +21,18 @@ import scipy.sparse as sp
 from ..contact.interface import shares_to_nearest
 from ..contact.overlay import locate, overlay
 from ..contact.quadratic import QuadraticStack
-from ..contact.quadratic3d import QuadraticSurface, _p2_mass
+from ..contact.quadratic3d import QuadraticSurface, p2_mass
 from ..errors import UnsupportedError
 from ..geometry.quadratic import Q2HexNodes
 from .hex import face_hats, reference_points
 from .hexfaces import (
     FeltFromRows,
     LumpedPressure,
-    _cross,
-    _triangles_rule,
     constrained_side,
     located_hats,
     matching,
+    plane_cross,
+    triangles_rule,
 )
 from .quad import QuadElement
 
@@ -139,8 +139,8 @@ class BiquadraticRows(SimpsonSurface):
         self.x.setflags(write=False)
         self.cells.setflags(write=False)
         P = self.x[cells[:, :3]]
-        area = 0.5 * np.abs(_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
-        self.mass = _p2_mass(cells, area, len(inside)).tocsr()
+        area = 0.5 * np.abs(plane_cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]))
+        self.mass = p2_mass(cells, area, len(inside)).tocsr()
         n = len(inside)
         own = sp.csr_matrix((np.ones(n), (np.arange(n), inside)), shape=(n, len(t.nodes)))
         self._interp = [None, None]
@@ -224,7 +224,7 @@ def _cut_hats(pair, side, faces, whole) -> np.ndarray:
                     np.asarray(other.faces)) if len(cut) else None
     if cover is None or len(cover.vertices) == 0:
         return np.zeros(len(t.nodes))
-    points, weights = _triangles_rule(cover, 2)
+    points, weights = triangles_rule(cover, 2)
     at = np.repeat(cut[np.asarray(cover.cell_a) // len(_QUARTERS)], weights.shape[1])
     xi = np.clip(reference_points(np.asarray(t.x)[faces[:, :4]], at, points), -1.0, 1.0)
     return np.bincount(faces[at].ravel(), weights=(_tents(xi) * weights.reshape(-1, 1)).ravel(),

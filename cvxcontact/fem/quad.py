@@ -280,12 +280,12 @@ class QuadElement(TensorElement):
         """``matrices`` with the consistent loads of ``body`` (SI): volume densities by :attr:`rule`, surface
         densities on the boundary edges by the segments' rules of the same trace as P1 (2 nodes) or P2 (3)."""
         from . import p2
-        from .assembly import _edge_load
+        from .assembly import edge_load
 
         mesh = body.mesh
         held = mesh if nodes is None else nodes
         cells, n = held.cells, len(held.points)
-        segment = (lambda tag, load, c: _edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
+        segment = (lambda tag, load, c: edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
             (lambda tag, load, c: p2._edge_load(nodes, nodes.boundary(tag), load, c))
 
         def edges(tag, load, c):                                    # (n, c) whatever the segment rule returns

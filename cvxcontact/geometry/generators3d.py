@@ -11,7 +11,7 @@ from itertools import permutations
 import numpy as np
 
 from ..errors import MeshError
-from .mesh import _count, _interval, _physical_memory
+from .mesh import positive_count, as_interval, physical_memory
 from .hexmesh import HEX_FACES, HexMesh
 from .tetmesh import OUTWARD_FACES, TetMesh
 
@@ -56,8 +56,8 @@ def box(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), z: Seq
     """
     if cell not in ("tetra", "hex"):
         raise MeshError(f"box: cell must be 'tetra' (tetrahedra) or 'hex' (hexahedra), got {cell!r}")
-    bounds = [_interval(v, k) for v, k in ((x, "x"), (y, "y"), (z, "z"))]
-    counts = [_count(v, k) for v, k in ((nx, "nx"), (ny, "ny"), (nz, "nz"))]
+    bounds = [as_interval(v, k) for v, k in ((x, "x"), (y, "y"), (z, "z"))]
+    counts = [positive_count(v, k) for v, k in ((nx, "nx"), (ny, "ny"), (nz, "nz"))]
     _check_size(counts[0] * counts[1] * counts[2], int(np.prod([n + 1 for n in counts])))
     specs = _patch_specs(patches, bounds)
     point, ratios = _grade(grade, bounds)
@@ -234,8 +234,8 @@ def cylinder(radius: float, height: float, n_r: int = 4, n_z: int = 4, n_theta: 
         if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(v) or v <= 0:
             raise MeshError(f"cylinder: {key} must be a positive number (m), got {v!r}")
-    n_r, n_z = _count(n_r, "n_r"), _count(n_z, "n_z")
-    n_theta = 6 * n_r if n_theta is None else _count(n_theta, "n_theta")
+    n_r, n_z = positive_count(n_r, "n_r"), positive_count(n_z, "n_z")
+    n_theta = 6 * n_r if n_theta is None else positive_count(n_theta, "n_theta")
     if n_theta % n_r or n_theta < 3 * n_r:
         raise MeshError(f"cylinder: n_theta = {n_theta} must be a multiple of n_r = {n_r} and at least {3 * n_r}")
     try:
@@ -297,7 +297,7 @@ def _check_size(cells, nodes):
     if cells > MAX_CELLS_3D:
         raise MeshError(f"{cells:.3g} cells is more than the limit of {MAX_CELLS_3D:.0e} "
                         f"(~{nodes:.3g} nodes, ~{4 * nodes:.3g} unknowns); use fewer cells")
-    have = _physical_memory()
+    have = physical_memory()
     need = nodes * BYTES_PER_NODE_3D
     if have and need > have:
         raise MeshError(f"{cells:.3g} cells, ~{nodes:.3g} nodes (~{4 * nodes:.3g} unknowns), need ~{need / 1e9:.3g} "

@@ -25,9 +25,8 @@ from numpy.typing import ArrayLike
 
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh, cell_corners
-from .meshchecks import _frozen, _renumbering, one_orientation
-from .tetmesh import TetMesh
-from .tetmesh import _as_points as _as_points3
+from .meshchecks import checked_renumbering, frozen_copy, one_orientation
+from .tetmesh import TetMesh, as_points3
 
 __all__ = ["HexMesh", "HEX_FACES", "HEX_EDGES", "CORNERS", "read_hexes"]
 
@@ -72,7 +71,7 @@ class HexMesh(CellMesh):
     """The cell type (the key of the spaces, :func:`cvxcontact.fem.space.space`)."""
 
     def __init__(self, points: ArrayLike, hexes: ArrayLike, boundaries: Mapping[str, ArrayLike] | None = None) -> None:
-        points = _as_points3(points)
+        points = as_points3(points)
         h = _orient(points, cell_corners(hexes, 8, "hexes", len(points)))
         faces = h[:, HEX_FACES].reshape(-1, 4)                                 # (6 m, 4) outward
         keys = np.sort(faces, axis=1)
@@ -92,9 +91,9 @@ class HexMesh(CellMesh):
         tets = _split_cells(faces, rank, len(points) + np.repeat(np.arange(len(h)), 6))
         split = TetMesh(np.concatenate([points, centres]), tets,
                         {t: _triangles(f, rank) for t, f in tags.items()})
-        self._set(_points=split.points[:len(points)], _hexes=_frozen(h, np.int64), split=split,
-                  _boundary_faces=_frozen(bfaces, np.int64), boundary_cells=_frozen(owned // 6, np.int64),
-                  _tags=FrozenMap({t: _frozen(f, np.int64) for t, f in tags.items()}, "HexMesh boundaries",
+        self._set(_points=split.points[:len(points)], _hexes=frozen_copy(h, np.int64), split=split,
+                  _boundary_faces=frozen_copy(bfaces, np.int64), boundary_cells=frozen_copy(owned // 6, np.int64),
+                  _tags=FrozenMap({t: frozen_copy(f, np.int64) for t, f in tags.items()}, "HexMesh boundaries",
                                   "build a new HexMesh"))
 
     def _frozen_hint(self, name: str) -> str:
@@ -144,7 +143,7 @@ class HexMesh(CellMesh):
         t = 1.0 / np.sqrt(3.0)
         X = self.points[self.hexes]
         vol = sum(_jacobian(X, np.array([a, b, c]) * t)[1] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1))
-        return _frozen(vol, float)
+        return frozen_copy(vol, float)
 
     @property
     def node_components(self) -> np.ndarray:
@@ -154,7 +153,7 @@ class HexMesh(CellMesh):
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each cell."""
-        return _frozen(self.split.components[::12], np.int64)
+        return frozen_copy(self.split.components[::12], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 4) faces carrying ``tag``, corners in order around each with the right-hand normal outward
@@ -211,7 +210,7 @@ class HexMesh(CellMesh):
     def renumbered(self, order: ArrayLike) -> HexMesh:
         """The same mesh with node i of the new mesh node ``order[i]`` of this one (as :meth:`TetMesh.renumbered
         <cvxcontact.geometry.tetmesh.TetMesh.renumbered>`)."""
-        order, new = _renumbering(order, len(self.points))
+        order, new = checked_renumbering(order, len(self.points))
         return HexMesh(self.points[order], new[self.hexes], {t: new[self.boundary(t)] for t in self.tags})
 
 

@@ -24,15 +24,15 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import FrozenMap, MeshError, locked
 from .base import CellMesh, cell_corners
 from .meshchecks import (
-    _as_points,
-    _boundary_edges,
-    _check_embedding,
-    _check_nodes,
-    _edge_table,
-    _frozen,
-    _orient,
-    _renumbering,
-    _signed_areas,
+    as_points,
+    boundary_edges,
+    check_embedding,
+    check_nodes,
+    checked_renumbering,
+    edge_table,
+    frozen_copy,
+    orient,
+    signed_areas,
 )
 
 if TYPE_CHECKING:
@@ -79,19 +79,19 @@ class Mesh(CellMesh):
 
     def __init__(self, points: ArrayLike, triangles: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:
-        points = _as_points(points)
+        points = as_points(points)
         triangles = cell_corners(triangles, 3, "triangles", len(points))
-        _check_nodes(points, triangles)
-        triangles = _orient(points, triangles)
-        self._set(_points=_frozen(points, float), _triangles=_frozen(triangles, np.int64))
-        table = _edge_table(self._triangles, len(points))
-        keys, edges = _boundary_edges(self._triangles, len(points), table)
-        _check_embedding(self._points, self._triangles, edges, table)
-        self._set(_boundary_keys=_frozen(keys, np.int64), _boundary_edges=_frozen(edges, np.int64))
+        check_nodes(points, triangles)
+        triangles = orient(points, triangles)
+        self._set(_points=frozen_copy(points, float), _triangles=frozen_copy(triangles, np.int64))
+        table = edge_table(self._triangles, len(points))
+        keys, edges = boundary_edges(self._triangles, len(points), table)
+        check_embedding(self._points, self._triangles, edges, table)
+        self._set(_boundary_keys=frozen_copy(keys, np.int64), _boundary_edges=frozen_copy(edges, np.int64))
         if boundaries is not None and not isinstance(boundaries, Mapping):
             raise MeshError(f"boundaries must be a dict mapping tags to (k, 2) arrays of node pairs, "
                             f"got {type(boundaries).__name__}")
-        self._set(_tags=FrozenMap({str(tag): _frozen(self._orient_edges(str(tag), tagged), np.int64)
+        self._set(_tags=FrozenMap({str(tag): frozen_copy(self._orient_edges(str(tag), tagged), np.int64)
                                    for tag, tagged in (boundaries or {}).items()},
                                   "Mesh boundaries", "build a new Mesh"))
 
@@ -143,13 +143,13 @@ class Mesh(CellMesh):
         MeshError
             If ``order`` is not a permutation of the node indices.
         """
-        order, new = _renumbering(order, len(self.points))
+        order, new = checked_renumbering(order, len(self.points))
         return Mesh(self.points[order], new[self.triangles], {t: new[self.boundary(t)] for t in self.tags})
 
     @cached_property
     def areas(self) -> np.ndarray:
         """(m,) triangle areas in m^2."""
-        areas = _signed_areas(self.points, self.triangles)
+        areas = signed_areas(self.points, self.triangles)
         return locked(areas)
 
     @cached_property
@@ -174,7 +174,7 @@ class Mesh(CellMesh):
         _, first = np.unique(labels, return_index=True)
         rank = np.empty(len(first), dtype=np.int64)
         rank[np.argsort(first)] = np.arange(len(first))   # number by lowest node index
-        return _frozen(rank[labels], np.int64)
+        return frozen_copy(rank[labels], np.int64)
 
     @cached_property
     def components(self) -> np.ndarray:
@@ -182,7 +182,7 @@ class Mesh(CellMesh):
 
         ``components.max() + 1`` is the number of separate pieces of the body.
         """
-        return _frozen(self.node_components[self.triangles[:, 0]], np.int64)
+        return frozen_copy(self.node_components[self.triangles[:, 0]], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their triangle (domain on the left; read-only)."""
@@ -234,8 +234,8 @@ def rectangle(x: Sequence[float] = (0.0, 1.0), y: Sequence[float] = (0.0, 1.0), 
     ``{"footprint": ("top", 0.25, 0.75)}`` tags the edges of the top side between x = 0.25
     and 0.75 m (for "left"/"right", between two ordinates); both ends must be grid nodes.
     """
-    (x0, x1), (y0, y1) = (_interval(x, "x"), _interval(y, "y"))
-    nx, ny = _count(nx, "nx"), _count(ny, "ny")
+    (x0, x1), (y0, y1) = (as_interval(x, "x"), as_interval(y, "y"))
+    nx, ny = positive_count(nx, "nx"), positive_count(ny, "ny")
     _check_size(nx, ny)
     if cell not in ("triangle", "quad"):
         raise MeshError(f"cell must be 'triangle' or 'quad', got {cell!r}")
@@ -304,7 +304,8 @@ def _segment(name, spec, sides, points):
     return edges[inside]
 
 
-def _interval(v, name):
+def as_interval(v, name):
+    """(start, end) (m) of the pair ``v``, checked finite with end > start (a MeshError naming ``name`` otherwise)."""
     try:
         a, b = (float(s) for s in v)
     except (TypeError, ValueError):
@@ -314,7 +315,8 @@ def _interval(v, name):
     return a, b
 
 
-def _count(n, name):
+def positive_count(n, name):
+    """``n`` as an int, checked to be a positive integer (a MeshError naming the argument ``name`` otherwise)."""
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
         raise MeshError(f"{name} must be a positive integer, got {n!r}")
     return int(n)
@@ -328,7 +330,7 @@ BYTES_PER_NODE = 10_000
 peak 9.9 kB per node at 1e5 nodes (the full CVXPY model needs about twice as much)."""
 
 
-def _physical_memory():
+def physical_memory():
     """The machine's physical memory in bytes, or None if the system does not say."""
     import os
 
@@ -345,7 +347,7 @@ def _check_size(nx, ny):
     if cells > MAX_CELLS:
         raise MeshError(f"rectangle: nx*ny = {cells:.3g} cells is more than the limit of {MAX_CELLS:.0e} cells "
                         f"(~{nodes:.3g} nodes, ~{3 * nodes:.3g} unknowns)")
-    have = _physical_memory()
+    have = physical_memory()
     if have and need > have:
         raise MeshError(f"rectangle: nx*ny = {cells:.3g} cells, ~{nodes:.3g} nodes (~{3 * nodes:.3g} unknowns), "
                         f"needs ~{need / 1e9:.3g} GB to solve, machine has {have / 1e9:.3g} GB; "
@@ -432,7 +434,7 @@ def read_mesh(path: str | os.PathLike[str], boundaries: Mapping[str, ArrayLike] 
         corners = renumber[triangles]
         if cell == "quad":                                    # the same boundary as its cells cut in two
             corners = corners[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3)
-        keys, _ = _boundary_edges(corners, len(used))
+        keys, _ = boundary_edges(corners, len(used))
         for tag, edges in list(parts.items()):
             inside = (renumber[edges] >= 0).all(axis=1)
             e = np.sort(renumber[edges[inside]], axis=1) @ np.array([len(used), 1])

@@ -19,18 +19,20 @@ DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
 
 CELLS = 1 << 16
-"""Cells per block of the edge lengths of :func:`_check_nodes` (their temporaries, about 500 bytes per
+"""Cells per block of the edge lengths of :func:`check_nodes` (their temporaries, about 500 bytes per
 tetrahedron at once, were the peak of building a large tetrahedral mesh)."""
 
 
 # --------------------------------------------------------------------------- validation helpers
 
-def _frozen(a, dtype):
+def frozen_copy(a, dtype):
     """A C-contiguous read-only copy of ``a`` (:func:`locked`: its writing cannot be turned back on)."""
     return locked(np.array(a, dtype=dtype, order="C", copy=True))
 
 
-def _as_points(points):
+def as_points(points):
+    """The (n, 2) float array of a planar mesh's ``points`` (m; a constant third coordinate dropped), checked:
+    n >= 3, finite (a MeshError naming what is wrong otherwise)."""
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[1] not in (2, 3) or len(p) < 3:
         raise MeshError(f"points must be an (n, 2) array with n >= 3, got shape {p.shape}")
@@ -43,7 +45,7 @@ def _as_points(points):
     return np.ascontiguousarray(p)
 
 
-def _renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:
+def checked_renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(order, new) for ``renumbered``: ``order`` checked to be a permutation of 0..n-1 (else a MeshError naming
     the fix) and its inverse, new[old index] = new index."""
     order = np.asarray(order)
@@ -57,7 +59,7 @@ def _renumbering(order: ArrayLike, n: int) -> tuple[np.ndarray, np.ndarray]:
     return order, new
 
 
-def _check_nodes(points, cells, what="triangle"):
+def check_nodes(points, cells, what="triangle"):
     """Every node is used, and no two nodes are closer than DUPLICATE_TOL times the local element size.
 
     The local size h(v) of node v is its longest incident edge; nodes i, j are
@@ -88,13 +90,16 @@ def _check_nodes(points, cells, what="triangle"):
                         f"element size ({h[i]:.3g} m)")
 
 
-def _signed_areas(points, triangles):
+def signed_areas(points, triangles):
+    """(m,) the signed areas (m^2) of the ``triangles`` (m, 3) of ``points``, positive counter-clockwise."""
     a, b, c = (points[triangles[:, k]] for k in range(3))
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
-def _orient(points, triangles):
-    area = _signed_areas(points, triangles)
+def orient(points, triangles):
+    """The ``triangles`` oriented counter-clockwise (all reversed where all are clockwise; a MeshError where the
+    orientations are mixed, :func:`one_orientation`, or a triangle is degenerate, zero area)."""
+    area = signed_areas(points, triangles)
     scale = float(np.ptp(points, axis=0).max()) ** 2
     tiny = np.abs(area) <= 1e-14 * scale
     if tiny.any():
@@ -119,7 +124,7 @@ def one_orientation(cells, positive, flip, names):
                     f"the rest (the mesh folds over), e.g. {one} {k}: nodes {cells[k].tolist()}")
 
 
-def _edge_table(triangles, n):
+def edge_table(triangles, n):
     """Directed edges (3 per triangle, row 3 t + i), their sorted undirected keys, the sorting
     permutation, and the start and length of each run of equal keys."""
     edges = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
@@ -130,9 +135,9 @@ def _edge_table(triangles, n):
     return edges, keys, order, start, np.diff(np.r_[start, len(keys)])
 
 
-def _boundary_edges(triangles, n, table=None):
+def boundary_edges(triangles, n, table=None):
     """Sorted keys and oriented node pairs of the edges that belong to exactly one triangle."""
-    edges, keys, order, start, count = table if table is not None else _edge_table(triangles, n)
+    edges, keys, order, start, count = table if table is not None else edge_table(triangles, n)
     if (count > 2).any():
         k = int(order[start[np.argmax(count > 2)]])
         raise MeshError(f"an edge is shared by more than two triangles (nodes {edges[k].tolist()}, triangle "
@@ -141,7 +146,7 @@ def _boundary_edges(triangles, n, table=None):
     return keys[once], edges[order[once]]
 
 
-def _check_embedding(points, triangles, boundary, table):
+def check_embedding(points, triangles, boundary, table):
     """Refuse triangles that overlap or fold over one another.
 
     With every triangle counter-clockwise and non-degenerate and every edge in at
@@ -263,7 +268,7 @@ def _check_crossings(points, boundary):
 
 
 def _check_layers(points, boundary):
-    """Each boundary loop has one layer of triangles on its left (see _check_embedding, (e))."""
+    """Each boundary loop has one layer of triangles on its left (see check_embedding, (e))."""
     n = len(points)
     graph = coo_matrix((np.ones(len(boundary)), (boundary[:, 0], boundary[:, 1])), shape=(n, n))
     _, node_loop = connected_components(graph, directed=False)

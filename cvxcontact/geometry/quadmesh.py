@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from ..errors import MeshError, locked
 from .base import CellMesh, cell_corners
 from .mesh import Mesh
-from .meshchecks import _as_points, _frozen, _renumbering, one_orientation
+from .meshchecks import as_points, checked_renumbering, frozen_copy, one_orientation
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
 
@@ -59,10 +59,10 @@ class QuadMesh(CellMesh):
     """The cell type (the key of the spaces, :func:`cvxcontact.fem.space.space`)."""
 
     def __init__(self, points: ArrayLike, quads: ArrayLike, boundaries: Mapping[str, ArrayLike] | None = None) -> None:
-        points = _as_points(points)
+        points = as_points(points)
         q = _orient(points, cell_corners(quads, 4, "quads", len(points)))
         split = Mesh(points, q[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3), boundaries)   # every Mesh check
-        self._set(_points=split.points, _quads=_frozen(q, np.int64), split=split)
+        self._set(_points=split.points, _quads=frozen_copy(q, np.int64), split=split)
 
     def _frozen_hint(self, name: str) -> str:
         return "build a new QuadMesh (mesh.with_points(points) moves or scales it)"
@@ -108,7 +108,7 @@ class QuadMesh(CellMesh):
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each cell."""
-        return _frozen(self.split.components[::2], np.int64)
+        return frozen_copy(self.split.components[::2], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their cell (domain on the left; read-only)."""
@@ -128,7 +128,7 @@ class QuadMesh(CellMesh):
 
     def renumbered(self, order: ArrayLike) -> QuadMesh:
         """The same mesh with node i of the new mesh node ``order[i]`` of this one (as :meth:`Mesh.renumbered`)."""
-        order, new = _renumbering(order, len(self.points))
+        order, new = checked_renumbering(order, len(self.points))
         return QuadMesh(self.points[order], new[self.quads], {t: new[self.boundary(t)] for t in self.tags})
 
 

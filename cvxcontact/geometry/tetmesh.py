@@ -21,7 +21,7 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import FrozenMap, MeshError
 from .base import CellMesh
 from .facets import facet_keys
-from .meshchecks import _check_nodes, _frozen, _renumbering, one_orientation
+from .meshchecks import check_nodes, checked_renumbering, frozen_copy, one_orientation
 
 __all__ = ["TetMesh"]
 
@@ -84,17 +84,17 @@ class TetMesh(CellMesh):
 
     def __init__(self, points: ArrayLike, tets: ArrayLike,
                  boundaries: Mapping[str, ArrayLike] | None = None) -> None:
-        points = _as_points(points)
+        points = as_points3(points)
         tets = _as_tets(tets, len(points))
-        _check_nodes(points, tets, "tetrahedron")
+        check_nodes(points, tets, "tetrahedron")
         tets = _orient(points, tets)
-        self._set(_points=_frozen(points, float), _tets=_frozen(tets, np.int64))
+        self._set(_points=frozen_copy(points, float), _tets=frozen_copy(tets, np.int64))
         keys, faces = _check_embedding(self._points, self._tets)
-        self._set(_boundary_keys=_frozen(keys, np.int64), _boundary_faces=_frozen(faces, np.int64))
+        self._set(_boundary_keys=frozen_copy(keys, np.int64), _boundary_faces=frozen_copy(faces, np.int64))
         if boundaries is not None and not isinstance(boundaries, Mapping):
             raise MeshError(f"boundaries must be a dict mapping tags to (k, 3) arrays of node triples, "
                             f"got {type(boundaries).__name__}")
-        self._set(_tags=FrozenMap({str(tag): _frozen(self._orient_faces(str(tag), tagged), np.int64)
+        self._set(_tags=FrozenMap({str(tag): frozen_copy(self._orient_faces(str(tag), tagged), np.int64)
                                    for tag, tagged in (boundaries or {}).items()},
                                   "TetMesh boundaries", "build a new TetMesh"))
 
@@ -149,13 +149,13 @@ class TetMesh(CellMesh):
         MeshError
             If ``order`` is not a permutation of the node indices.
         """
-        order, new = _renumbering(order, len(self.points))
+        order, new = checked_renumbering(order, len(self.points))
         return TetMesh(self.points[order], new[self.tets], {t: new[self.boundary(t)] for t in self.tags})
 
     @cached_property
     def volumes(self) -> np.ndarray:
         """(m,) tetrahedron volumes in m^3 (read-only)."""
-        return _frozen(_signed_volumes(self.points, self.tets), float)
+        return frozen_copy(_signed_volumes(self.points, self.tets), float)
 
     @cached_property
     def node_components(self) -> np.ndarray:
@@ -168,12 +168,12 @@ class TetMesh(CellMesh):
         _, first = np.unique(labels, return_index=True)
         rank = np.empty(len(first), dtype=np.int64)
         rank[np.argsort(first)] = np.arange(len(first))
-        return _frozen(rank[labels], np.int64)
+        return frozen_copy(rank[labels], np.int64)
 
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each tetrahedron (read-only), as :attr:`node_components`."""
-        return _frozen(self.node_components[self.tets[:, 0]], np.int64)
+        return frozen_copy(self.node_components[self.tets[:, 0]], np.int64)
 
     @property
     def boundary_faces(self) -> np.ndarray:
@@ -186,7 +186,7 @@ class TetMesh(CellMesh):
         keys = facet_keys(np.sort(self.tets[:, OUTWARD_FACES].reshape(-1, 3), axis=1), len(self.points))
         order = np.argsort(keys, kind="stable")
         where = np.searchsorted(keys[order], facet_keys(np.sort(self._boundary_faces, axis=1), len(self.points)))
-        return _frozen(order[where] // 4, np.int64)
+        return frozen_copy(order[where] // 4, np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 3) faces carrying ``tag``, oriented so that (p1 - p0) x (p2 - p0) points out (read-only)."""
@@ -231,7 +231,9 @@ class TetMesh(CellMesh):
 
 # --------------------------------------------------------------------------- validation helpers
 
-def _as_points(points):
+def as_points3(points):
+    """The (n, 3) float array of a 3D mesh's ``points`` (m), checked: n >= 4, at most MAX_NODES, finite (a
+    MeshError naming what is wrong otherwise)."""
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 4:
         raise MeshError(f"points must be an (n, 3) array with n >= 4, got shape {p.shape}")

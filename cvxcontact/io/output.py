@@ -20,7 +20,7 @@ from ..errors import CvxContactError
 from ..fem.fields import body_fields
 from ..fem.space import space, space_of
 from ..fem.trace import TRACES
-from ..solution.solution import _pairs, force_unit, pair_label
+from ..solution.solution import force_unit, pair_label, pair_lines
 
 if TYPE_CHECKING:
     from ..solution.solution import Solution
@@ -146,10 +146,10 @@ def _solid_mesh(body, u, phi, nodes=None):
                        cell_data={k: [v] for k, v in cell_data.items()})
 
 
-def _interface(solution, pair=0):
+def pair_interface(solution, pair=0):
     """Contact pair ``pair``'s line: P1 ``scene.interfaces[pair]``, P2 the solution's quadratic interface
     (or pair ``pair``'s one in its stack of several pairs)."""
-    return _pairs(solution.scene, getattr(solution, "interface", None))[0][pair]
+    return pair_lines(solution.scene, getattr(solution, "interface", None))[0][pair]
 
 
 def trace_pressure(solution, k, pair=0):
@@ -164,14 +164,14 @@ def pair_bodies(solution, pair=0) -> list[int]:
     """Scene indices of the bodies on the sides of contact pair ``pair`` (one index for a rigid pair), in
     the order of that pair's traces (P2: the quadratic interface's own ``members``)."""
     if getattr(solution, "degree", 1) == 2:
-        return [m for m in _interface(solution, pair).members if m is not None]
+        return [m for m in pair_interface(solution, pair).members if m is not None]
     a, b = solution.scene.stack.members[pair]
     return [a] if b is None else [a, b]
 
 
 def _side_displacements(solution, pair=0):
     """Displacement (n_merged, d) of each side's trace interpolated at the merged nodes (m)."""
-    itf = _interface(solution, pair)
+    itf = pair_interface(solution, pair)
     return [itf.interpolation(k) @ solution.u[b][t.nodes]
             for k, (b, t) in enumerate(zip(pair_bodies(solution, pair), itf.traces))]
 
@@ -223,7 +223,7 @@ def friction_vectors(solution, pair=0) -> dict[str, np.ndarray]:
     if c.slip is None:
         return {}
     n = len(c.x)
-    basis = tangential_basis(_interface(solution, pair), np.asarray(c.slip).reshape(n, -1).shape[1])
+    basis = tangential_basis(pair_interface(solution, pair), np.asarray(c.slip).reshape(n, -1).shape[1])
     return {k: np.einsum("nc,cnd->nd", np.asarray(v, dtype=float).reshape(n, -1), basis)
             for k, v in (("slip", c.slip), ("shear", c.shear), ("shear_force", c.shear_force))}
 
@@ -273,7 +273,7 @@ def contact_mesh(solution, pair=0):
     import meshio
 
     c = solution.contacts[pair]
-    itf = _interface(solution, pair)
+    itf = pair_interface(solution, pair)
     n = len(c.x)
     if solution.scene.dim == 3:
         points, cells = np.asarray(c.points, dtype=float), [("triangle", surface_cells(itf))]
@@ -306,7 +306,7 @@ def trace_mesh(solution, k, pair=0):
     and ``displacement [m]`` (that body's, so the trace warps with it)."""
     import meshio
 
-    itf = _interface(solution, pair)
+    itf = pair_interface(solution, pair)
     t = itf.traces[k]
     b = pair_bodies(solution, pair)[k]
     _, p = trace_pressure(solution, k, pair)
@@ -396,7 +396,7 @@ def _pair_summary(solution, i) -> dict:
            "active_nodes": int(c.active.sum()), "contact_zone_nodes": int(solution.in_contact(i).sum()),
            "contact_zone_fraction": solution.contact_fraction(i)}
     if solution.scene.dim == 3:
-        frame = _interface(solution, i).frame
+        frame = pair_interface(solution, i).frame
         out["frame"] = [[float(v) for v in t] for t in frame]
         out["active_s_m"] = ([[float(s[c.active, j].min()), float(s[c.active, j].max())] for j in range(2)]
                              if c.active.any() else None)
@@ -483,7 +483,7 @@ def _estimate_summary(solution) -> dict:
 
 def _lengths(solution, k, pair=0):
     """The lumped lengths (2D, m) or areas (3D, m^2) of side ``k``'s trace nodes on pair ``pair``."""
-    return TRACES[getattr(solution, "degree", 1)].side_lengths(_interface(solution, pair).traces[k])
+    return TRACES[getattr(solution, "degree", 1)].side_lengths(pair_interface(solution, pair).traces[k])
 
 
 def write_summary(solution, path):

@@ -352,10 +352,10 @@ def contact_zone(solution: Solution, pair: int = 0) -> np.ndarray:
     where the pressure is positive (:meth:`Solution.in_contact`; not the ``active`` nodes, which carry the
     nodal forces: under "gamma3" a subset of the overlay's); its boundary is every cell edge that belongs to
     exactly one such cell. Empty (0, 2, 2) without a cell whose nodes are all in contact."""
-    from .output import _interface, surface_cells
+    from .output import pair_interface, surface_cells
 
     c = solution.contacts[pair]
-    tri = surface_cells(_interface(solution, pair))
+    tri = surface_cells(pair_interface(solution, pair))
     on = tri[solution.in_contact(pair)[tri].all(axis=1)]
     if len(on) == 0:
         return np.zeros((0, 2, 2))
@@ -386,7 +386,7 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
     counts its nodes, the share of the area it covers, and the active nodes (those carrying a nodal force). Axes are the pair's in-plane coordinates
     (s1, s2) along its frame (t1, t2) ((x, y) for a plane z = const), with engineering prefixes. Returns the
     Figure."""
-    from .output import _interface, surface_cells
+    from .output import pair_interface, surface_cells
 
     plt = _pyplot()
     if not isinstance(solutions, dict):
@@ -419,7 +419,7 @@ def plot_contact_map(solutions: Solution | dict[str, Solution]) -> Figure:
         for k in range(len(sides), 2):
             axes[r, k].set_axis_off()
         ax = axes[r, 2]
-        tri = surface_cells(_interface(sol, i))      # on the pair the rows were posed on (c.x is its X_h)
+        tri = surface_cells(pair_interface(sol, i))      # on the pair the rows were posed on (c.x is its X_h)
         cells = (tri,) if len(tri) else ()           # none (Q2 rows on faces the overlap cuts): matplotlib's Delaunay
         gap = np.zeros(len(c.x)) if c.gap is None else np.asarray(c.gap)
         u_scale = max(float(np.abs(u).max()) for u in sol.u)

@@ -46,7 +46,7 @@ import scipy.sparse as sp
 from ..backends.cones import mixed_bernstein_rows
 from ..backends.finish import Declined
 from ..backends.program import conic_options, run_program
-from ..backends.result import Cache, RawResult, Settings
+from ..backends.result import Cache, RawResult, Settings, declined_words
 from ..backends.run import run
 from ..contact.laws import ContactLaw, check_law, check_law_for
 from ..discrete import build_problem
@@ -422,7 +422,7 @@ class Model:
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
-        self._warn(sol, finishable, declined, stacklevel=3)
+        self._warn(sol, finishable, raw, stacklevel=3)
         return sol
 
     def _admits(self, raw) -> bool:
@@ -462,15 +462,14 @@ class Model:
         sol.info = replace(sol.info, timings=timings)
         # a finish that applies and declined (a friction term's decline keeps its interior point's answer silently,
         # as cc.solve: ``finishes``), else the checks
-        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw.declined,
-                   stacklevel=4)
+        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw, stacklevel=4)
         return sol
 
-    def _warn(self, sol, finishable: bool, declined: Declined | None, stacklevel: int) -> None:
-        """A ResidualWarning when an exact finish that applies was declined, or when the checks fail."""
+    def _warn(self, sol, finishable: bool, raw: RawResult, stacklevel: int) -> None:
+        """A ResidualWarning when an exact finish that applies was declined (why: ``raw.declined``, what is kept:
+        ``raw.kept``), or when the checks fail."""
         if self.polish and finishable and not sol.polished:
-            warnings.warn(f"the exact finish of the user model of {self.scene!r} ({self.condition}) was declined "
-                          f"({declined}); the interior-point answer is kept (sol.polished is False):\n"
+            warnings.warn(f"{declined_words(f'the user model of {self.scene!r}', self.condition, raw)}:\n"
                           f"{sol.report()}", ResidualWarning, stacklevel=stacklevel)
         elif not sol.ok:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
@@ -500,5 +499,5 @@ class Model:
         self._set_values(raw.u, raw.phi, raw.taus)
         # a finish that always runs (not term.finish_declined: cc.Model does not warn of the cones' declined cuts,
         # which cc.solve reports; tests/test_terms.py::test_model_warns_where_a_finish_that_always_runs_did_not)
-        self._warn(sol, self.problem.term.always_finished, raw.declined, stacklevel=4)
+        self._warn(sol, self.problem.term.always_finished, raw, stacklevel=4)
         return sol

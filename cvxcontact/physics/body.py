@@ -336,7 +336,7 @@ def _prescribed(value, label, dim=2):
     for v in value:
         if v is None:
             out.append(None)
-        elif _real_scalar(v) and np.isfinite(v):
+        elif real_scalar(v) and np.isfinite(v):
             out.append(float(v))
         else:
             raise SceneError(f"{label}: expected {what} of finite numbers (m) or None, got {value!r}")
@@ -348,7 +348,7 @@ def _prescribed(value, label, dim=2):
 
 def _charge(value, label):
     """A floating electrode's total charge Q (C/m), checked."""
-    if not _real_scalar(value) or not np.isfinite(value):
+    if not real_scalar(value) or not np.isfinite(value):
         raise SceneError(f"{label}: expected the total charge Q in C/m (a finite number, 0 = open circuit), "
                          f"got {value!r}")
     return float(value)
@@ -443,11 +443,12 @@ def _real_numbers(value) -> bool:
     if isinstance(value, np.ndarray):
         return value.dtype.kind in "iuf"
     if isinstance(value, (list, tuple)):
-        return all(_real_scalar(v) for v in value)
-    return _real_scalar(value)
+        return all(real_scalar(v) for v in value)
+    return real_scalar(value)
 
 
-def _real_scalar(v) -> bool:
+def real_scalar(v) -> bool:
+    """Whether ``v`` is a real number (an int or float, a NumPy scalar or 0-d array of one; not a bool)."""
     if isinstance(v, np.ndarray):
         return v.ndim == 0 and v.dtype.kind in "iuf"
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)

@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SceneError
-from .surfaces import _fmt
+from .surfaces import fmt
 
 if TYPE_CHECKING:
     from .pairs import Rigid
@@ -23,7 +23,7 @@ if TYPE_CHECKING:
 __all__ = ["ObstacleRows", "obstacle_rows"]
 
 
-def _direction(v) -> np.ndarray:
+def unit_direction(v) -> np.ndarray:
     """The unit vector of v with components below 1e-12 of it set to 0 (rounding, not a direction)."""
     v = np.asarray(v, dtype=float) / np.linalg.norm(v)
     return np.where(np.abs(v) < 1e-12, 0.0, v)
@@ -98,26 +98,26 @@ def obstacle_rows(scene) -> tuple[ObstacleRows, ...]:
                                                                     np.arange(rank)]
                 off = F - basis @ (basis.T @ F)             # the force's part along the unseen translations
                 if np.linalg.norm(off) > 1e-9 * np.linalg.norm(F):
-                    side = _direction(off)
-                    along = "its normal " + _fmt(basis[:, 0] + 0.0) if rank == 1 else \
-                        "the directions " + ", ".join(_fmt(b + 0.0) for b in basis.T)
+                    side = unit_direction(off)
+                    along = "its normal " + fmt(basis[:, 0] + 0.0) if rank == 1 else \
+                        "the directions " + ", ".join(fmt(b + 0.0) for b in basis.T)
                     seen = int((np.abs(rows) > 0).any(axis=1).sum())
                     few = "" if obstacle.kind in ("plane", "cylinder") else (
                         f" (only {seen} node{'s' if seen != 1 else ''} of its pairs {'lie' if seen != 1 else 'lies'}"
                         f" within its reach, too few to hold it in {dim} directions: refine the mesh under it, "
                         f"cells well below its size, or guide it with guided=<the force's direction>)")
                     raise SceneError(
-                        f"{label}: the force {_fmt(F)} {unit} has a component {np.linalg.norm(off):.6g} {unit} along "
-                        f"{_fmt(side)}, which frictionless contact cannot balance: the obstacle is free to slide "
-                        f"along {_fmt(side)}; give a force along {along} only{few}")
+                        f"{label}: the force {fmt(F)} {unit} has a component {np.linalg.norm(off):.6g} {unit} along "
+                        f"{fmt(side)}, which frictionless contact cannot balance: the obstacle is free to slide "
+                        f"along {fmt(side)}; give a force along {along} only{few}")
             y, res = nnls(rows.T / scale, F)
             if res > 1e-9 * np.linalg.norm(F):
                 r = F - rows.T @ y / scale
-                r = _direction(r)
+                r = unit_direction(r)
                 raise SceneError(
-                    f"{label}: the force {_fmt(F)} {unit} pulls the obstacle away from the bodies "
+                    f"{label}: the force {fmt(F)} {unit} pulls the obstacle away from the bodies "
                     f"(compressive contact forces cannot balance it): the obstacle is free to move along "
-                    f"{_fmt(r)}; give a force pressing it onto the bodies")
+                    f"{fmt(r)}; give a force pressing it onto the bodies")
         basis = np.array(basis)
         basis.setflags(write=False)
         out.append(ObstacleRows(obstacle, tuple(pairs), sp.csr_matrix(rows), F, basis))

@@ -41,9 +41,9 @@ from numpy.typing import ArrayLike
 from ..contact.interface import CONDITIONS
 from ..contact.laws import ContactLaw, check_law
 from ..errors import Frozen, SceneError
-from .obstacles import ObstacleRows, _direction, obstacle_rows
-from .posings import POSINGS, _central_derivatives, _posed, _posing
-from .surfaces import _Ball, _Cylinder, _fmt, _HeightField, _Plane, _Profile
+from .obstacles import ObstacleRows, obstacle_rows, unit_direction
+from .posings import POSINGS, central_derivatives, named_posing, posed_surface
+from .surfaces import Ball, Cylinder, HeightField, Plane, Profile, fmt
 
 __all__ = ["Contact", "Rigid", "ObstacleRows", "obstacle_rows"]
 
@@ -72,7 +72,7 @@ def _force(force, kind, dim=2) -> np.ndarray | None:
     F = _point(force, f"Rigid.{kind}: force", (dim,))
     if not np.linalg.norm(F) > 0:
         unit = "N/m" if dim == 2 else "N"
-        raise SceneError(f"Rigid.{kind}(force={_fmt(F)}): a zero force holds the obstacle nowhere (its position is "
+        raise SceneError(f"Rigid.{kind}(force={fmt(F)}): a zero force holds the obstacle nowhere (its position is "
                          f"undetermined); give a non-zero force ({unit}) pressing it onto the bodies, or no force "
                          "(a fixed obstacle)")
     return F
@@ -96,12 +96,12 @@ def _guide(guided, kind, dim) -> np.ndarray | None:
         raise SceneError(f"Rigid.{kind}: guided: {len(G)} axes in {dim}D; give 1 to {dim} orthogonal unit axes")
     for i, g in enumerate(G):
         if abs(np.linalg.norm(g) - 1) > 1e-9:
-            raise SceneError(f"Rigid.{kind}: guided axis {i} {_fmt(g)} has length {np.linalg.norm(g):.6g}; give "
+            raise SceneError(f"Rigid.{kind}: guided axis {i} {fmt(g)} has length {np.linalg.norm(g):.6g}; give "
                              "unit axes (e.g. (0, 0, 1)), the directions along which the obstacle may translate")
     for i in range(len(G)):
         for j in range(i + 1, len(G)):
             if abs(G[i] @ G[j]) > 1e-9:
-                raise SceneError(f"Rigid.{kind}: guided axes {i} {_fmt(G[i])} and {j} {_fmt(G[j])} are not "
+                raise SceneError(f"Rigid.{kind}: guided axes {i} {fmt(G[i])} and {j} {fmt(G[j])} are not "
                                  f"orthogonal (dot product {G[i] @ G[j]:.6g}); give orthogonal unit axes")
     G.setflags(write=False)
     return G
@@ -114,10 +114,11 @@ def _guided_force(F, G, kind):
     held = F - G.T @ (G @ F)
     if np.linalg.norm(held) > 1e-9 * np.linalg.norm(F):
         unit = "N/m" if len(F) == 2 else "N"
-        axes = ", ".join(_fmt(g) for g in G)
-        raise SceneError(f"Rigid.{kind}(force={_fmt(F)}, guided={axes}): the force has a component "
-                         f"{np.linalg.norm(held):.6g} {unit} along {_fmt(_direction(held))}, a direction the guide "
-                         f"holds (the obstacle translates along {axes} only); give a force along the guided axes")
+        axes = ", ".join(fmt(g) for g in G)
+        raise SceneError(f"Rigid.{kind}(force={fmt(F)}, guided={axes}): the force has a component "
+                         f"{np.linalg.norm(held):.6g} {unit} along {fmt(unit_direction(held))}, a direction the "
+                         f"guide holds (the obstacle translates along {axes} only); give a force along the guided "
+                         "axes")
 
 
 class Rigid(Frozen):
@@ -167,7 +168,7 @@ class Rigid(Frozen):
             moved = bool(np.any(p != 0))
             dist = (lambda x, nu: distance(x - p, nu)) if moved else distance
             sens = sensitivity if sensitivity is None or not moved else (lambda x, nu: sensitivity(x - p, nu))
-            return dist, sens, None, None, str(describe), (f".moved(to={_fmt(p)})" if moved else "")
+            return dist, sens, None, None, str(describe), (f".moved(to={fmt(p)})" if moved else "")
 
         self._build(str(kind), shape, np.zeros(dim), _force(force, str(kind), dim), _guide(guided, str(kind), dim))
 
@@ -180,10 +181,10 @@ class Rigid(Frozen):
         _guided_force(force, guided, kind)
         distance, sensitivity, direction, derivatives, describe, suffix = shape(position)
         if force is not None:
-            describe = describe[:-1] + f", force={_fmt(force)})"
+            describe = describe[:-1] + f", force={fmt(force)})"
         if guided is not None:
-            describe = describe[:-1] + ", guided=" + (_fmt(guided[0]) if len(guided) == 1 else
-                                                      "(" + ", ".join(_fmt(g) for g in guided) + ")") + ")"
+            describe = describe[:-1] + ", guided=" + (fmt(guided[0]) if len(guided) == 1 else
+                                                      "(" + ", ".join(fmt(g) for g in guided) + ")") + ")"
         self._set(kind=kind, force=force, guided=guided, position=position, dim=len(position), _shape=shape,
                   _distance=distance, _sensitivity=sensitivity, _direction=direction, _derivatives=derivatives,
                   _describe=describe + suffix)
@@ -282,7 +283,7 @@ class Rigid(Frozen):
         points, normal = self._check(points, normal)
         if self._derivatives is not None:
             return self._derivatives(points, normal)
-        return _central_derivatives(self._distance, points, normal)
+        return central_derivatives(self._distance, points, normal)
 
     def direction(self, points: np.ndarray, normal: np.ndarray) -> np.ndarray:
         """(n, dim): the unit direction d(x) along which the row at each of ``points`` measures the body's
@@ -304,7 +305,7 @@ class Rigid(Frozen):
         if not (np.isfinite(points).all() and np.isfinite(normal).all()):
             raise SceneError(f"{self!r}: points and normal must be finite (no NaN or inf)")
         if abs(np.linalg.norm(normal) - 1) > 1e-9:
-            raise SceneError(f"{self!r}: the normal {_fmt(normal)} must be a unit vector")
+            raise SceneError(f"{self!r}: the normal {fmt(normal)} must be a unit vector")
         points.setflags(write=False)
         normal.setflags(write=False)
         return points, normal
@@ -338,8 +339,8 @@ class Rigid(Frozen):
             raise SceneError("Rigid.plane: normal must not be zero")
         n = n / np.linalg.norm(n)
         n.setflags(write=False)
-        posing = _posing(distance, "plane")
-        return cls._made("plane", lambda p: _posed(_Plane(p, n), posing, POSINGS["ray"]), p, F,
+        posing = named_posing(distance, "plane")
+        return cls._made("plane", lambda p: posed_surface(Plane(p, n), posing, POSINGS["ray"]), p, F,
                          _guide(guided, "plane", len(p)))
 
     @classmethod
@@ -367,8 +368,8 @@ class Rigid(Frozen):
         c = _point(center, "Rigid.sphere: center", (3,))
         F = _force(force, "sphere", 3)
         R = _radius(radius, "sphere")
-        posing = _posing(distance, "sphere")
-        return cls._made("sphere", lambda c: _posed(_Ball(c, R, "sphere"), posing, POSINGS["closest"]), c, F,
+        posing = named_posing(distance, "sphere")
+        return cls._made("sphere", lambda c: posed_surface(Ball(c, R, "sphere"), posing, POSINGS["closest"]), c, F,
                          _guide(guided, "sphere", 3))
 
     @classmethod
@@ -404,8 +405,8 @@ class Rigid(Frozen):
             raise SceneError("Rigid.cylinder: axis must not be zero")
         a = a / np.linalg.norm(a)
         a.setflags(write=False)
-        posing = _posing(distance, "cylinder")
-        return cls._made("cylinder", lambda p: _posed(_Cylinder(p, a, R), posing, POSINGS["closest"]), p, F,
+        posing = named_posing(distance, "cylinder")
+        return cls._made("cylinder", lambda p: posed_surface(Cylinder(p, a, R), posing, POSINGS["closest"]), p, F,
                          _guide(guided, "cylinder", 3))
 
     @classmethod
@@ -439,8 +440,8 @@ class Rigid(Frozen):
             raise SceneError(f"Rigid.height_field: f must be a callable f(x, y) (m), got {type(f).__name__}")
         o = _point(origin, "Rigid.height_field: origin", (3,))
         F = _force(force, "height_field", 3)
-        posing = _posing(distance, "height_field")
-        return cls._made("height_field", lambda q: _posed(_HeightField(f, q), posing, POSINGS["closest"]), o, F,
+        posing = named_posing(distance, "height_field")
+        return cls._made("height_field", lambda q: posed_surface(HeightField(f, q), posing, POSINGS["closest"]), o, F,
                          _guide(guided, "height_field", 3))
 
     @classmethod
@@ -471,8 +472,8 @@ class Rigid(Frozen):
                 or not np.isfinite(radius) or radius <= 0:
             raise SceneError(f"Rigid.circle: radius must be a positive finite number (m), got {radius!r}")
         R = float(radius)
-        posing = _posing(distance, "circle")
-        return cls._made("circle", lambda c: _posed(_Ball(c, R, "circle"), posing, POSINGS["closest"]), c, F,
+        posing = named_posing(distance, "circle")
+        return cls._made("circle", lambda c: posed_surface(Ball(c, R, "circle"), posing, POSINGS["closest"]), c, F,
                          _guide(guided, "circle", 2))
 
     @classmethod
@@ -507,8 +508,8 @@ class Rigid(Frozen):
             raise SceneError(f"Rigid.profile: f must be a callable f(s) of the tangential coordinate (m), "
                              f"got {type(f).__name__}")
         o = _point(origin, "Rigid.profile: origin")
-        posing = _posing(distance, "profile")
-        return cls._made("profile", lambda q: _posed(_Profile(f, o, q), posing, POSINGS["closest"]), o, F,
+        posing = named_posing(distance, "profile")
+        return cls._made("profile", lambda q: posed_surface(Profile(f, o, q), posing, POSINGS["closest"]), o, F,
                          _guide(guided, "profile", 2))
 
 

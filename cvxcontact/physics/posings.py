@@ -109,7 +109,7 @@ POSINGS = {p.name: p for p in (ClosestPoint(), Ray())}
 """The posings of :class:`Posing` by the name a constructor's ``distance=`` takes."""
 
 
-def _posing(distance, kind) -> Posing:
+def named_posing(distance, kind) -> Posing:
     """The :class:`Posing` named ``distance`` (SceneError naming the choices otherwise)."""
     if isinstance(distance, Posing):
         return distance
@@ -120,7 +120,7 @@ def _posing(distance, kind) -> Posing:
     return POSINGS[distance]
 
 
-def _posed(surface, posing, default):
+def posed_surface(surface, posing, default):
     """(distance, sensitivity, direction, description, suffix) of ``surface`` posed by ``posing`` (the
     description names the posing where it is not the kind's ``default``)."""
     distance, sensitivity, direction = posing.pose(surface)
@@ -138,7 +138,7 @@ def _along_part(g, grad, hess, nu):
     return g, grad, hess
 
 
-def _central_derivatives(distance, points, normal):
+def central_derivatives(distance, points, normal):
     """(g, grad, hess) of an obstacle given by its ``distance`` only, by central differences along the part
     (step 1e-4 of the points' extent; second-order: what an analytic surface gives in closed form)."""
     d = len(normal)

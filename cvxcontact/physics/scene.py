@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike
 
 from ..contact.interface import Interface, Stack
 from ..errors import Frozen, FrozenTuple, MeshError, SceneError
-from .body import Body, Load, _real_scalar
+from .body import Body, Load, real_scalar
 from .obstacles import obstacle_rows
 from .pairs import Contact, Rigid
 
@@ -242,7 +242,7 @@ class Scene(Frozen):
         for i, c in enumerate(contacts):
             if not isinstance(c, Contact):
                 raise SceneError(f"contacts[{i}] must be a cc.Contact, got {type(c).__name__}")
-        if callable(gap) or (_real_scalar(gap) and gap != 0):
+        if callable(gap) or (real_scalar(gap) and gap != 0):
             raise SceneError("with contacts=, give each Contact its own gap (Contact(..., gap=g)); "
                              "Scene(gap=) is for the two-body scene without contacts")
         seen = set()

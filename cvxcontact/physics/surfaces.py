@@ -17,7 +17,9 @@ from ..contact.interface import canonical_tangent
 from ..errors import SceneError
 
 
-def _fmt(v) -> str:
+def fmt(v) -> str:
+    """The vector ``v`` as "(x, y[, z])", each component to 6 significant digits (the obstacles' and pairs'
+    messages and descriptions)."""
     return "(" + ", ".join(f"{x:.6g}" for x in v) + ")"
 
 def _surface_values(label, f, args) -> np.ndarray:
@@ -58,18 +60,18 @@ class _Surface:
         raise NotImplementedError
 
 
-class _Plane(_Surface):
+class Plane(_Surface):
     """The half-plane (half-space) {z : (z - p) . n <= 0} (``n`` its unit normal, out of the obstacle)."""
 
     def __init__(self, p, n):
         self.p, self.n = p, n
-        self.describe = f"plane(point={_fmt(p)}, normal={_fmt(n)})"
+        self.describe = f"plane(point={fmt(p)}, normal={fmt(n)})"
 
     def _facing(self, nu):
         c = float(nu @ self.n)
         if c >= -1e-12:
-            raise SceneError(f"Rigid.plane through {_fmt(self.p)} m with normal {_fmt(self.n)} does not face the "
-                             f"contact part, whose outward normal is {_fmt(nu)}; the plane's normal must point "
+            raise SceneError(f"Rigid.plane through {fmt(self.p)} m with normal {fmt(self.n)} does not face the "
+                             f"contact part, whose outward normal is {fmt(nu)}; the plane's normal must point "
                              "towards the body")
         return -c
 
@@ -93,12 +95,12 @@ class _Plane(_Surface):
         return _implicit_ray(self.ray(x, nu), self.outward(x), np.zeros((len(x), len(nu), len(nu))), nu)
 
 
-class _Ball(_Surface):
+class Ball(_Surface):
     """The disc (2D) or ball (3D) of radius ``R`` (m) around ``c`` (m)."""
 
     def __init__(self, c, R, kind):
         self.c, self.R = c, R
-        self.describe = f"{kind}(center={_fmt(c)}, radius={R:.6g})"
+        self.describe = f"{kind}(center={fmt(c)}, radius={R:.6g})"
 
     def ray(self, x, nu):
         w, lo = _two_sum(x, -self.c)
@@ -127,12 +129,12 @@ class _Ball(_Surface):
         return _implicit_ray(g, y, np.broadcast_to(np.eye(len(nu)), (len(x), len(nu), len(nu))), nu)
 
 
-class _Cylinder(_Surface):
+class Cylinder(_Surface):
     """The solid cylinder of radius ``R`` (m) around the line through ``p`` along the unit ``axis``."""
 
     def __init__(self, p, axis, R):
         self.p, self.axis, self.R = p, axis, R
-        self.describe = f"cylinder(point={_fmt(p)}, axis={_fmt(axis)}, radius={R:.6g})"
+        self.describe = f"cylinder(point={fmt(p)}, axis={fmt(axis)}, radius={R:.6g})"
 
     def across(self, v):                                    # the components normal to the axis
         return v - np.multiply.outer(v @ self.axis, self.axis)
@@ -254,7 +256,7 @@ def _graph_foot(F, p0, z, origin, label):
         todo[idx] = ~settled
     else:
         worst = int(np.flatnonzero(todo)[0])
-        raise SceneError(f"{label}: the closest point of the surface to the point with parameters {_fmt(p0[worst])} "
+        raise SceneError(f"{label}: the closest point of the surface to the point with parameters {fmt(p0[worst])} "
                          "was not found to rounding in 100 Newton steps (the surface is not smooth there, or the "
                          "point is far from it compared with its curvature radius); use a smoother f, or "
                          "distance='ray'")
@@ -283,13 +285,13 @@ def _graph_hessian(g, G, H, E, U):
     return n_o, dn @ np.linalg.solve(A, Sp)
 
 
-class _HeightField(_Surface):
+class HeightField(_Surface):
     """The solid above z = f(x - o_x, y - o_y) + o_z (m)."""
 
     def __init__(self, f, o):
         self.f, self.o = f, o
         name = getattr(f, "__name__", type(f).__name__)
-        self.describe = f"height_field({name}, origin={_fmt(o)})"
+        self.describe = f"height_field({name}, origin={fmt(o)})"
 
     def surface(self, xy):
         X, Y = xy[:, 0] - self.o[0], xy[:, 1] - self.o[1]
@@ -310,8 +312,8 @@ class _HeightField(_Surface):
 
     def _up(self, nu):
         if nu[2] <= 1e-12:
-            raise SceneError(f"Rigid.height_field(origin={_fmt(self.o)}) lies above its surface, so it does not "
-                             f"face a contact part whose outward normal is {_fmt(nu)}: the part must face up "
+            raise SceneError(f"Rigid.height_field(origin={fmt(self.o)}) lies above its surface, so it does not "
+                             f"face a contact part whose outward normal is {fmt(nu)}: the part must face up "
                              "(nu_z > 0)")
 
     def ray(self, x, nu):
@@ -329,8 +331,8 @@ class _HeightField(_Surface):
                 if (np.abs(step[np.isfinite(step)]) <= 1e-12 * (1 + np.abs(d[live][np.isfinite(step)]))).all():
                     break
             else:
-                raise SceneError(f"Rigid.height_field(origin={_fmt(self.o)}): Newton's method did not find where "
-                                 f"the normal {_fmt(nu)} meets the surface in 50 steps; use a smoother f or a part "
+                raise SceneError(f"Rigid.height_field(origin={fmt(self.o)}): Newton's method did not find where "
+                                 f"the normal {fmt(nu)} meets the surface in 50 steps; use a smoother f or a part "
                                  "facing straight up")
         return d
 
@@ -367,7 +369,7 @@ class _HeightField(_Surface):
         return _implicit_ray(g, np.column_stack([G, -np.ones(len(x))]), hess, nu)
 
 
-class _Profile(_Surface):
+class Profile(_Surface):
     """The profile ``f`` built with origin ``o`` and moved so that its origin is at ``q`` (m): the surface lies at
     F(s) = f(s) + (q - o) . nu from the contact part along its outward normal nu, s = (x - q) . t (a profile's
     distances are measured from the contact part; the translation's normal component adds to them)."""

@@ -74,8 +74,8 @@ from scipy.optimize import nnls
 from ..contact.interface import lumped_lengths, row_directions
 from ..errors import SceneError, SolverError, UnsupportedError
 from ..fem.space import space
-from .equilibration import _body_stress, _body_system, _edges
-from .estimate import ErrorEstimate, _read_only, cell_energies
+from .equilibration import body_stress, body_system, mesh_edges
+from .estimate import ErrorEstimate, cell_energies, read_only
 
 __all__ = ["COVERED", "check_covered", "equilibrated_displacement", "equilibrated_stress", "error_bound",
            "reconstruction_mesh"]
@@ -204,7 +204,7 @@ def error_bound(sol) -> ErrorEstimate:
     parts = {"stress": stress, "electric": electric, "complementarity": comp, "correction": correction,
              "equilibrium residual": b["residual"]}
     return ErrorEstimate(absolute=total, norm=float(np.sqrt(max(norm2, 0.0))),
-                         indicators=tuple(_read_only(np.sqrt(np.maximum(e2, 0.0))) for e2 in eta2),
+                         indicators=tuple(read_only(np.sqrt(np.maximum(e2, 0.0))) for e2 in eta2),
                          parts=parts, guaranteed=True, kind="equilibrated")
 
 
@@ -233,12 +233,12 @@ def _construct(sol) -> dict:
     for k, body in enumerate(scene.bodies):
         phi_h = None if sol.phi[k] is None else np.asarray(sol.phi[k], dtype=float)
         loads = [side for cd in contacts for side in cd["sides"] if side["body"] == k]
-        systems.append(_body_system(sol, body, v[k], phi_h, loads, n_p))
+        systems.append(body_system(sol, body, v[k], phi_h, loads, n_p))
     c = np.concatenate([np.zeros(0), *(cd["weights"](v) for cd in contacts)])
     lumped = np.concatenate([np.zeros(0), *(cd["lumped"] for cd in contacts)])
     p = _pressure(systems, c, lumped, np.concatenate([np.zeros(0, dtype=bool), *(cd["zone"] for cd in contacts)]))
     try:
-        bodies = [_body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
+        bodies = [body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
     except SolverError:
         # a body held by its contacts alone (rollers on its sides, pressed by its loads) carries only a p that
         # balances them; the minimiser prices (PS) on the conditions' range and may miss that balance, the
@@ -246,7 +246,7 @@ def _construct(sol) -> dict:
         if p is lumped or np.array_equal(p, lumped):
             raise
         p = lumped
-        bodies = [_body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
+        bodies = [body_stress(sol, body, system, p) for body, system in zip(scene.bodies, systems)]
     for cd in contacts:
         cd["p"] = p[cd["offset"]:cd["offset"] + len(cd["x"])]
     residual = max((part["residual"] for part in bodies), default=0.0)
@@ -361,7 +361,7 @@ def _contact_data(sol, i, u_h):
     n_a = len(mesh_a.points)
     seg = np.clip(np.searchsorted(first.x, 0.5 * (s0 + s1)) - 1, 0, len(first.x) - 2)
     ea, eb = first.nodes[seg], first.nodes[seg + 1]
-    cells_a, _, pairs_a = _edges(mesh_a)
+    cells_a, _, pairs_a = mesh_edges(mesh_a)
     key_all = pairs_a[:, 0].astype(np.int64) * n_a + pairs_a[:, 1]
     owner = cells_a[np.searchsorted(key_all, np.minimum(ea, eb).astype(np.int64) * n_a + np.maximum(ea, eb)), 0]
     tq, wq = 0.5 * (_GAUSS5[0] + 1.0), 0.5 * _GAUSS5[1]

@@ -59,7 +59,7 @@ def _tensor(sv):
     return out
 
 
-def _diameters(points, simplices) -> np.ndarray:
+def simplex_diameters(points, simplices) -> np.ndarray:
     """(m,) the longest edge of each simplex (m, k) of ``points`` (by blocks of CELLS simplices)."""
     i, j = np.triu_indices(simplices.shape[1], 1)
     out = np.empty(len(simplices))
@@ -137,7 +137,7 @@ class SimplexSide:
 
     @property
     def hF(self) -> np.ndarray:
-        return _diameters(self._mesh.points, self.f)
+        return simplex_diameters(self._mesh.points, self.f)
 
     def face_of(self, element):
         """The faces of the trace's elements ``element``: the same indices."""
@@ -159,7 +159,7 @@ class SimplexSide:
         return acc * mesh.face_areas(self._part)
 
 
-def _smallest(matrix, voigt: bool) -> float:
+def smallest_eigenvalue(matrix, voigt: bool) -> float:
     """The smallest eigenvalue of a stiffness (Voigt, engineering shear: on tensor-orthonormal strains) or
     permittivity matrix."""
     a = np.asarray(matrix, dtype=float)
@@ -170,7 +170,7 @@ def _smallest(matrix, voigt: bool) -> float:
     return float(np.linalg.eigvalsh(0.5 * (a + a.T)).min())
 
 
-def _boundary_roles(body, sol):
+def boundary_roles(body, sol):
     """Per boundary part of ``body``: its mechanical role ("dirichlet", "roller", "partial", "traction",
     "contact") and electric role ("dirichlet", "charge")."""
     mech, elec = {}, {}

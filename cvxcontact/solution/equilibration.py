@@ -27,13 +27,13 @@ from ..errors import SolverError, UnsupportedError
 from ..fem.assembly import gradients, voigt_strains
 from ..geometry.facets import facets
 from ..geometry.mesh import Mesh
-from .estimate import _boundary_roles
+from .estimate import boundary_roles
 
 _K3_INV = np.array([[3.0, -1.0, -1.0], [-1.0, 3.0, -1.0], [-1.0, -1.0, 3.0]])   # area/12 [[2,1,1],..]^-1 * area/3
 _EQUILIBRIUM_TOL = 1e-9        # largest |A tau - b| accepted, relative to the stresses (Pa / Pa)
 
 
-def _edges(mesh):
+def mesh_edges(mesh):
     """Every edge of a triangle mesh once, from the facet table (:func:`~cvxcontact.geometry.facets.facets`):
     (cells (k, 2) with -1 for a boundary edge's missing neighbour, the local edge index i in each (the edge
     from vertex i to vertex i + 1, opposite vertex i + 2), vertex pair (k, 2) sorted; the keys a n + b of the
@@ -112,7 +112,7 @@ def _continuity(rows, sub_a, va, sub_b, vb, n):
 # ---------------------------------------------------------------------------------------------- the stress
 
 
-def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
+def body_system(sol, body, v, phi_h, loads, n_p) -> dict:
     """The conditions on the equilibrated stress of one body (module docstring) on its reconstruction mesh (the
     contact edges of its pairs divided at the breakpoints in ``loads``), for the admissible displacement ``v``
     (n, 2) and the potential ``phi_h`` (n,) or None; ``loads``: per contact side, dict(breaks, d, part, x, tol,
@@ -148,7 +148,7 @@ def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
         _continuity(rows, a, 0, b, 1, n)            # at v_s: local 0 of sub s, local 1 of sub s - 1
         _continuity(rows, a, 2, b, 2, n)            # at the barycentre
     # across the mesh's interior edges; the boundary conditions on its boundary edges
-    cells, local, pairs = _edges(mesh)
+    cells, local, pairs = mesh_edges(mesh)
     c0, l0 = cells[:, 0], local[:, 0]
     sa, sb = p_pts[tri[c0, l0]], p_pts[tri[c0, (l0 + 1) % 3]]
     h = np.linalg.norm(sb - sa, axis=1)
@@ -181,8 +181,8 @@ def _body_system(sol, body, v, phi_h, loads, n_p) -> dict:
             "D_v": D_v, "sigma_v": sigma_v, "A": A, "rhs": rhs, "B": B, "Minv": Minv, "S": S, "lu": lu}
 
 
-def _body_stress(sol, body, system, p) -> dict:
-    """The equilibrated stress of one body (``system``: :func:`_body_system`) for the contact pressures p, its
+def body_stress(sol, body, system, p) -> dict:
+    """The equilibrated stress of one body (``system``: :func:`body_system`) for the contact pressures p, its
     conditions' residual checked, and the equilibrated electric displacement of a piezoelectric body."""
     A, rhs = system["A"], system["rhs"] + system["B"] @ p
     tau = _equilibrate(system["S"], system["lu"], A, rhs, system["Minv"], system["tau0"])
@@ -295,7 +295,7 @@ def _boundary_rows(rows, sol, body, mesh, cells, local, pairs, n_out, loads, n_p
     key = pairs[:, 0].astype(np.int64) * len(p) + pairs[:, 1]
     role = np.full(len(key), "free", dtype=object)
     tag_of = np.full(len(key), None, dtype=object)
-    mech, _ = _boundary_roles(body, sol)
+    mech, _ = boundary_roles(body, sol)
     for tag, r in mech.items():
         e = mesh.boundary(tag)
         idx = np.searchsorted(key, np.minimum(e[:, 0], e[:, 1]).astype(np.int64) * len(p) + np.maximum(e[:, 0], e[:, 1]))

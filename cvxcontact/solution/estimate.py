@@ -55,7 +55,7 @@ from ..geometry.facets import facet_keys
 from ..geometry.facets import facets as facet_table
 from ..physics.fingerprint import geometry_fingerprint
 from . import contactestimate as contact
-from .contactestimate import _boundary_roles, _diameters, _smallest
+from .contactestimate import boundary_roles, simplex_diameters, smallest_eigenvalue
 from .tensorestimate import TensorGeometry
 
 __all__ = ["ErrorEstimate", "Geometry", "cell_energies", "energy_density", "estimate", "vertex_fields"]
@@ -202,8 +202,8 @@ class Geometry:
         mesh = self._mesh = body.mesh
         self.dim = mesh.points.shape[1]
         self.tensors = c, _, kappa = body.material.tensors(self.dim)
-        self.cT = _smallest(c, True)
-        self.kT = _smallest(kappa, False) if kappa is not None else None
+        self.cT = smallest_eigenvalue(c, True)
+        self.kT = smallest_eigenvalue(kappa, False) if kappa is not None else None
         self.measure, self.gradL = gradients(mesh.points, mesh.cells)
         # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL, one copy of the gradients)
         self.el, self.G = space(degree, mesh.cell).corner_gradients(body, self.gradL)
@@ -219,7 +219,7 @@ class Geometry:
 
     def roles(self, mech: dict, elec: dict, partial: dict) -> _Roles:
         """The :class:`_Roles` of the boundary parts' mechanical roles ``mech`` and electric roles ``elec`` (tag ->
-        role, :func:`~.contactestimate._boundary_roles`) and the prescribed components of the ``partial`` parts,
+        role, :func:`~.contactestimate.boundary_roles`) and the prescribed components of the ``partial`` parts,
         kept per roles (a load case keeps them unless it loads other parts)."""
         key = (tuple(mech.items()), tuple(elec.items()), tuple((t, tuple(c)) for t, c in partial.items()))
         if key not in self._roles:
@@ -244,7 +244,7 @@ class Geometry:
     @cached_property
     def hT(self) -> np.ndarray:
         """(m,) m: the longest edge of each cell."""
-        return _diameters(self._mesh.points, self._mesh.cells)
+        return simplex_diameters(self._mesh.points, self._mesh.cells)
 
     @cached_property
     def faces(self) -> _Faces:
@@ -260,7 +260,7 @@ class Geometry:
         c1 = owners[ii, 1]
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
-        hF = _diameters(mesh.points, vertices)
+        hF = simplex_diameters(mesh.points, vertices)
         pos0 = (contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
         pos1 = (contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
         at1 = np.full(pos0.shape, q * len(self.el), dtype=self.index)   # a boundary facet's other side: a zero row
@@ -413,14 +413,15 @@ def estimate(sol, signorini: bool = True, cache: dict | None = None,
         data.append((g.cT, g.kT))
     terms = contact._contact_terms if scene.dim == 2 else contact._surface_contact_terms
     terms(sol, data, held, eta2, parts, signorini)
-    indicators = tuple(_read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
+    indicators = tuple(read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
     return ErrorEstimate(absolute=float(np.sqrt(max(total, 0.0))), norm=float(np.sqrt(max(norm2, 0.0))),
                          indicators=indicators, parts=parts,
                          unit="sqrt(J)" if scene.dim == 3 else "sqrt(J/m)"), ""
 
 
-def _read_only(a):
+def read_only(a):
+    """``a`` as a float array whose writing is turned off (results are data)."""
     a = np.asarray(a, dtype=float)
     a.setflags(write=False)
     return a
@@ -497,7 +498,7 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     p = body.mesh.points
     f = g.faces
     n = f.normal
-    mech_role, elec_role = _boundary_roles(body, sol)
+    mech_role, elec_role = boundary_roles(body, sol)
     partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
                if mech_role.get(tag) == "partial"}
     roles = g.roles(mech_role, elec_role, partial)

@@ -28,8 +28,8 @@ import numpy as np
 
 from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with, rigid_balance
-from .nodal import _reads
-from .solution import _pairs
+from .nodal import read_columns
+from .solution import pair_lines
 
 __all__ = ["friction_checks", "obstacle_friction", "read_back_friction"]
 
@@ -93,14 +93,14 @@ def read_back_friction(problem, raw, sol) -> None:
     slip, Tmu = by_row(slip), by_row(Tmu)                                 # per node of X_h: (size,) or (size, c)
     measure = E.T @ (data.row_lengths * un.length)                     # the rows' weights at the nodes of X_h
     trace = problem.space.trace
-    pairs, _ = _pairs(problem.scene, trace.kept(problem.interface))
+    pairs, _ = pair_lines(problem.scene, trace.kept(problem.interface))
     pressing = data.pressing(raw.y)                       # the thresholds' normal forces (scaled)
 
     def row_read(i, a, b, forces):
         """P2: the rows' ``forces`` (scaled, one per row of E or (R, c)) over their own weights at the nodes of
         X_h (``trace.row_shear``); None where the pair has no row weights."""
         cond = problem.scene.conditions[i] or problem.condition
-        rows = np.flatnonzero(_reads(E[:, a:b].T))
+        rows = np.flatnonzero(read_columns(E[:, a:b].T))
         return trace.row_shear(pairs[i], cond, E[rows][:, a:b], forces[rows] * un.force)
 
     def row_shear(i, a, b):

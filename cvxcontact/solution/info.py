@@ -81,6 +81,11 @@ class SolveInfo:
         :class:`~cvxcontact.backends.finish.declined.Declined` (a string, its full words; ``.stop`` what stopped
         it, ``.phrase`` the short phrase :meth:`~cvxcontact.solution.Solution.report` shows); None if the arrays
         are an exact finish or none was declined. A plain string becomes a ``Declined`` of ``Stop.GIVEN``.
+    kept : str
+        Where a finish was declined (``declined``), what the arrays are, in words: "interior-point answer", or
+        the answer the finish's caller kept instead (the P2 cones with friction: "cut rounds' answer", exact to
+        the cuts' stop; :meth:`~cvxcontact.solution.Solution.report` and the warning name it); "" where none was
+        declined.
     """
 
     status: Status
@@ -95,6 +100,7 @@ class SolveInfo:
     fixed_point: tuple = ()
     declined: Declined | None = None
     released: bool = False
+    kept: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))

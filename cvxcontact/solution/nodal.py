@@ -32,7 +32,14 @@ from .checks import (
     touching_nodes,
 )
 from .info import Route, SolveInfo, Status
-from .solution import ContactResult, Solution, _line, _pairs, electrode_rows, electrodes
+from .solution import (
+    ContactResult,
+    Solution,
+    electrode_rows,
+    electrodes,
+    line_offset,
+    pair_lines,
+)
 
 __all__ = ["read_back_nodal", "read_back_cones", "read_back_compliance", "read_back_conic_mix"]
 
@@ -72,11 +79,11 @@ def read_back_cones(problem, raw, tol: float, timings) -> Solution:
                            pairing=raw.pairing, moved=problem.translation_sizes(raw.taus) if raw.taus else None)
     if raw.certificate is not None:
         checks_[ENERGY_ERROR] = energy_error(blocks, u, phi, raw.certificate)
-    on = _reads(B) & touching_nodes(blocks, u, gap, E.T @ raw.y, B, elements, tol, departure=problem.departure)
+    on = read_columns(B) & touching_nodes(blocks, u, gap, E.T @ raw.y, B, elements, tol, departure=problem.departure)
     return _assembled(problem, raw, tol, timings, checks_, B, on)
 
 
-def _reads(rows) -> np.ndarray:
+def read_columns(rows) -> np.ndarray:
     """The columns (nodes) the sparse ``rows`` read (bool per column)."""
     return np.asarray(abs(rows).sum(axis=0)).ravel() > 0
 
@@ -110,18 +117,18 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
             phi_si.append(s.phi_fixed.copy() if s.piezoelectric else None)
             continue
         phi_si.append(s.phi_fixed + s.Tp @ (pk * un.potential))          # phi = T_p z + phi_D
-    constrained = _reads(support)                                                        # the rows' nodes
+    constrained = read_columns(support)                                                        # the rows' nodes
     contacts = []
-    pairs, offsets = _pairs(scene, interface)
+    pairs, offsets = pair_lines(scene, interface)
     for i, pair in enumerate(pairs):                  # each pair's slice of the stacked rows
         part = slice(offsets[i], offsets[i + 1])
         cond = condition if scene.conditions[i] is None else scene.conditions[i]
         measure = trace.measure(pair, cond)           # the rows' quadrature weights (lengths or areas), or None
-        rows = np.flatnonzero(_reads(E[:, part].T))   # the pair's rows (each reads its own pair's nodes only)
+        rows = np.flatnonzero(read_columns(E[:, part].T))   # the pair's rows (each reads its own pair's nodes only)
         row_pressure = trace.row_pressure(pair, cond, E[rows][:, part], y[rows] * un.force)  # P2: y_a / w_a; M p = y
         contacts.append(ContactResult(
             x=pair.x.copy(), lam=lam[part] * un.force, jump=jump[part] * un.displacement,
-            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=_line(pair),
+            force=Ety[part] * un.force, constrained=constrained[part].copy(), active=on[part].copy(), line=line_offset(pair),
             gap=(gap + shift)[part] * un.displacement, points=pair.points.copy(), normal=np.array(pair.normal, dtype=float),
             degree=trace.degree, scale=float(sizes[part].max(initial=0.0)) * un.displacement, measure=measure,
             row_pressure=row_pressure))
@@ -191,7 +198,7 @@ def read_back_compliance(problem, raw, tol: float, timings, polished: bool | Non
             checks_["equilibrium"] = max(checks_["equilibrium"], balance)
     offsets = np.concatenate([[0], np.cumsum(rows.counts)]).astype(int)
     contacts = []
-    pairs, merged_at = _pairs(scene, interface)
+    pairs, merged_at = pair_lines(scene, interface)
     for i, (itf, c, pair_law) in enumerate(zip(pairs, sol.contacts, rows.laws)):
         if pair_law.compliant:
             cond = condition if scene.conditions[i] is None else scene.conditions[i]
@@ -249,8 +256,8 @@ def read_back_conic_mix(problem, raw, tol: float, timings) -> Solution:
     r = sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u)) - E @ gap
     p = scaled.pressure(r)
     zc = B.T @ beta.ravel()                                                    # the cones' force on X_h, scaled
-    on = _reads(B) & touching_nodes(blocks, u, gap + E.T @ scaled.cone_shift, E.T @ force, B, elements, tol)
-    pairs, offsets = _pairs(scene, interface)
+    on = read_columns(B) & touching_nodes(blocks, u, gap + E.T @ scaled.cone_shift, E.T @ force, B, elements, tol)
+    pairs, offsets = pair_lines(scene, interface)
     rows_at = np.concatenate([[0], np.cumsum(law.counts)]).astype(int)
     contacts = []
     for i, (itf, c) in enumerate(zip(pairs, sol.contacts)):

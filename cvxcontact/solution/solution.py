@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import cvxpy as cp
 import numpy as np
 
+from ..backends.result import INTERIOR_POINT_KEPT
 from ..fem.trace import TRACES, LinearTrace
 from ..errors import SceneError
 from ..physics.scene import Scene
@@ -438,7 +439,7 @@ class Solution:
                 not 0 <= pair < len(self.scene.interfaces):
             raise SceneError(f"pair must be an index of scene.contacts (0 to {len(self.scene.interfaces) - 1}), "
                              f"got {pair!r}")
-        return _pairs(self.scene, self.interface)[0][pair]
+        return pair_lines(self.scene, self.interface)[0][pair]
 
     def report(self) -> str:
         """A short human-readable account of the solve: what `cvxcontact solve` prints.
@@ -451,7 +452,7 @@ class Solution:
             its potential (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; :attr:`estimate`.
         """
         declined = self.info.declined
-        finish = ("exact finish" if self.polished else "interior-point answer"
+        finish = ("exact finish" if self.polished else (self.info.kept or INTERIOR_POINT_KEPT)
                   + (f" (exact finish declined: {declined.phrase})" if declined else ""))
         lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
@@ -546,7 +547,7 @@ def obstacle_results(sol, translations, obstacles=None, friction=None) -> None:
         sol._checks["obstacle balance"] = worst
 
 
-def _pairs(scene, interface):
+def pair_lines(scene, interface):
     """(each pair's contact line, the offsets of its nodes in the stacked arrays): P1 (``interface`` None)
     the scene's interfaces; P2 a :class:`~cvxcontact.contact.quadratic.QuadraticInterface` (one pair) or a
     :class:`~cvxcontact.contact.quadratic.QuadraticStack`."""
@@ -557,7 +558,7 @@ def _pairs(scene, interface):
     return [interface], [0, interface.size]
 
 
-def _line(pair) -> float:
+def line_offset(pair) -> float:
     """The ordinate (m) of a 2D pair's line (its first part's mean x2); in 3D the offset x . nu of the
     first part's plane."""
     return float(pair.y) if hasattr(pair, "y") else float(pair.traces[0].offset)

@@ -58,8 +58,8 @@ class TensorGeometry:
         self.space, self.element = sp, sp.element
         self.dim = mesh.points.shape[1]
         self.tensors = c, _, kappa = body.material.tensors(self.dim)
-        self.cT = contact._smallest(c, True)
-        self.kT = contact._smallest(kappa, False) if kappa is not None else None
+        self.cT = contact.smallest_eigenvalue(c, True)
+        self.kT = contact.smallest_eigenvalue(kappa, False) if kappa is not None else None
         self.el = np.asarray(sp.node_set(mesh).cells)
         self.corners = mesh.points[mesh.cells]                                  # (m, 2^d, d)
         self.n = degree + 2                                                     # Gauss points per axis
@@ -68,7 +68,7 @@ class TensorGeometry:
     @cached_property
     def hT(self) -> np.ndarray:
         """(m,) m: the diameter of each cell (its longest corner-to-corner distance)."""
-        return contact._diameters(self._mesh.points, self._mesh.cells)
+        return contact.simplex_diameters(self._mesh.points, self._mesh.cells)
 
     @cached_property
     def facets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -271,7 +271,7 @@ class TensorGeometry:
         ii = np.flatnonzero(owners[:, 1] >= 0)
         c1 = owners[ii, 1]
         f = len(c0)
-        roles_m, roles_e = contact._boundary_roles(body, sol)
+        roles_m, roles_e = contact.boundary_roles(body, sol)
         zero_m, zero_e, roller = np.zeros(f, bool), np.zeros(f, bool), np.zeros(f, bool)
         keep = np.ones((f, dim))
         for tag, role in roles_m.items():
@@ -309,7 +309,7 @@ class TensorGeometry:
                 elec += da * np.where(zero_e, 0.0, r) ** 2
         inner = np.zeros(f)
         inner[ii] = 1.0
-        scale = np.where(inner > 0, 0.5, 1.0) * contact._diameters(self._mesh.points, vertices)
+        scale = np.where(inner > 0, 0.5, 1.0) * contact.simplex_diameters(self._mesh.points, vertices)
         term = scale * mech / self.cT
         jump = float(term @ inner)
         parts["jump"] += 2 * jump
@@ -420,7 +420,7 @@ class TensorSide:
         self.f = np.asarray(mesh.boundary(part))
         self.cell = geometry.facets[0][geometry.part(part), 0]
         self.normals = mesh.outward_normals(part)
-        self.hF = contact._diameters(mesh.points, self.f)
+        self.hF = contact.simplex_diameters(mesh.points, self.f)
         self._pos = contact._facet_positions(np.asarray(mesh.cells)[self.cell], self.f)    # (k, v) in each cell
         # the trace's elements: the edges themselves (2D); the faces' triangles 2 j, 2 j + 1 of face j (3D)
         self._elements = np.asarray(getattr(mesh, "triangulation", mesh).boundary(part))

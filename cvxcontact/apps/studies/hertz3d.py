@@ -201,13 +201,13 @@ def secant_press(at, F, d0, rtol=1e-10, steps=30):
 def contact_radius(sol):
     """(a_h, min, max) (m): the distances from the axis of the mid-points of the trace edges joining an active
     node to an open one (mean, smallest, largest)."""
-    itf = _contact_surface(sol)
+    itf = contact_surface(sol)
     trace, reach = itf.traces[0], block_nodes(sol)
     active = np.zeros(len(trace.nodes), dtype=bool)
     active[reach] = sol.contact.active
     on = np.zeros(len(trace.nodes), dtype=bool)
     on[reach] = True
-    return _edge_radius(trace, active, on, outward=True)
+    return edge_radius(trace, active, on, outward=True)
 
 
 def contact_points(x, cells, q, tol, departure=None) -> np.ndarray:
@@ -232,7 +232,7 @@ def true_departure(sol) -> GapDeparture | None:
     if not getattr(sol.scene.interfaces[0], "rigid", False):
         return None
     c = sol.contact
-    x, cells = np.asarray(c.x, dtype=float), np.asarray(_contact_surface(sol).cells)
+    x, cells = np.asarray(c.x, dtype=float), np.asarray(contact_surface(sol).cells)
 
     def gap(elements, L):
         return sol.scene.pair_gap_values(0, np.einsum("kv,kvd->kd", L, x[cells[elements, :3]]))
@@ -267,7 +267,7 @@ def support_radius(sol, tol=SUPPORT_TOL) -> tuple[float, int]:
     x = np.asarray(c.x, dtype=float)
     if sol.contact.trace.gamma3_cones and sol.condition == "gamma3":
         q = np.asarray(c.jump) - np.asarray(c.gap)
-        pts = contact_points(x, _contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()),
+        pts = contact_points(x, contact_surface(sol).cells, q, tol * float(np.abs(c.jump).max()),
                              true_departure(sol))
     else:
         pts = x[np.asarray(c.active, dtype=bool)]
@@ -290,7 +290,7 @@ def block_nodes(sol) -> np.ndarray:
     in-plane point (the faces match: every node of X_h is one of the block's, else SolverError)."""
     from scipy.spatial import cKDTree
 
-    itf = _contact_surface(sol)
+    itf = contact_surface(sol)
     if getattr(itf, "rigid", False):
         return np.asarray(itf.reach)
     trace = itf.traces[0]
@@ -301,7 +301,7 @@ def block_nodes(sol) -> np.ndarray:
     return at
 
 
-def _contact_surface(sol):
+def contact_surface(sol):
     """The contact surface of the solution: the scene's P1 interface, or the P2 surface of a P2 solve."""
     return sol.contact_line(0)
 
@@ -314,7 +314,7 @@ def _linear_faces(faces):
     return faces[:, [0, 3, 5, 3, 1, 4, 5, 4, 2, 3, 4, 5]].reshape(-1, 3)
 
 
-def _edge_radius(trace, active, on, outward=False):
+def edge_radius(trace, active, on, outward=False):
     """(mean, min, max) distance (m) from the z axis of the mid-points of the edges of ``trace`` (its 3-node
     faces, or its 6-node faces cut into four) whose end nodes (both ``on``) differ in ``active``; ``outward``:
     only those whose end nearer the axis is the active one (an open node inside the contact zone, as P2
@@ -370,7 +370,7 @@ def measure(sol, delta, closed_form=None):
     a_moment = moment_radius(c.x, c.force)
     conic = sol.contact.trace.gamma3_cones and sol.condition == "gamma3"
     a_h, a_min, a_max = (a_hull, None, None) if conic else contact_radius(sol)
-    itf = _contact_surface(sol)
+    itf = contact_surface(sol)
     trace, reach = itf.traces[0], block_nodes(sol)
     r = np.hypot(c.points[:, 0], c.points[:, 1])
     axis = int(np.argmin(r))
@@ -457,12 +457,12 @@ def figure(sol, rows, sol2=None, rows2=(), sol3=None, rows3=()):
     ax.plot(r[~c.active], c.pressure[~c.active], "x", ms=3, color="0.5", label="P1: open nodes")
     ax.axvline(rows[-1]["a_h_m"], color="C3", lw=0.8, ls="--", label="P1 a_h (edge mid-points)")
     if sol2 is not None:
-        trace = _contact_surface(sol2).traces[0]
+        trace = contact_surface(sol2).traces[0]
         x2 = trace.points
         ax.plot(np.hypot(x2[:, 0], x2[:, 1]), sol2.traction(0)[1], "s", ms=2.5, color="C2", zorder=5,
                 label=f"P2 sigma1, n = {rows2[-1]['n']}: felt pressure")
     if sol3 is not None:
-        trace = _contact_surface(sol3).traces[0]
+        trace = contact_surface(sol3).traces[0]
         x3 = trace.points
         ax.plot(np.hypot(x3[:, 0], x3[:, 1]), sol3.traction(0)[1], "^", ms=2.5, color="C4", zorder=5,
                 label=f"P2 gamma3, n = {rows3[-1]['n']}: felt pressure")

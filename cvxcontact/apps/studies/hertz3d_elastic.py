@@ -54,7 +54,7 @@ from ...physics import materials
 from ...physics.pairs import Contact
 from ...physics.scene import Body, Scene
 from .common import Timer, markdown_table, pyplot, save_figure, slope, write_csv, write_text
-from .hertz3d import _edge_radius, hat_loads, pressure_axes, secant_press
+from .hertz3d import edge_radius, hat_loads, pressure_axes, secant_press
 
 E1, NU1 = 210e9, 0.3             # Pa, -: the steel punch (sphere)
 E2, NU2 = 70e9, 0.3              # Pa, -: the aluminium block
@@ -132,7 +132,7 @@ def contact_radius(sol):
     active[itf.reach] = sol.contact.active
     on = np.zeros(len(trace.nodes), dtype=bool)
     on[itf.reach] = True
-    return _edge_radius(_Flat(trace), active, on)
+    return edge_radius(_Flat(trace), active, on)
 
 
 class _Flat:
@@ -407,7 +407,7 @@ def run_profile(out, quick=False, progress=None, fine=False):
 def figure_profile(sols):
     """The pressure felt by the block (nonzero values) against r at the finest level of each row (``sols``:
     (degree, condition) -> (n, solution)), with Hertz's profile at the design force."""
-    from .hertz3d import _contact_surface
+    from .hertz3d import contact_surface
 
     plt = pyplot()
     a, p0, _ = hertz(FORCE)
@@ -416,7 +416,7 @@ def figure_profile(sols):
     ax.plot(rs, p0 * np.sqrt(1 - (rs / a) ** 2), "k-", lw=1.5, label="Hertz (closed form, E* of both)", zorder=3)
     marks = {(1, "sigma1"): "o", (1, "gamma3"): "x", (2, "sigma1"): "s", (2, "gamma3"): "^"}
     for key, (n, sol) in sols.items():
-        x = _contact_surface(sol).traces[0].points
+        x = contact_surface(sol).traces[0].points
         p = sol.traction(0)[1]
         on = p != 0
         ax.plot(np.hypot(x[on, 0], x[on, 1]), p[on], marks[key], ms=3, mfc="none",

@@ -13,14 +13,14 @@ answer of the discrete problem, one module per algorithm.
 """
 
 from .declined import CYCLE, MAX_ITER, SINGULAR, SINGULAR_FORCES, STALL, Declined, Stop
-from .dependent import _purified, independent_active_set, independent_interface, lawson_hanson, rows_kkt
+from .dependent import purified, independent_active_set, independent_interface, lawson_hanson, rows_kkt
 from .forces import (FORCE_FLOOR, coefficient_rounding, force_displacements, force_scale, friction_scale,
                      ipm_active, node_scales, reach_displacements, reach_forces, row_compliance, slack_terms,
                      slip_reach)
 from .lcp import SIGN_TOL, active_set_steps, closed_solve, lcp_start, row_scales, signs_hold, solve_lcp
 from .normal_compliance import solve_compliance, solve_linear_compliance, solve_sparse_compliance
-from .rows import (DEPENDENT_PIVOT, CholeskySystem, CompliantRows, FactoredRows, UpdatedSystem, _independent,
-                   _independent_rows, _row_scale,
+from .rows import (DEPENDENT_PIVOT, CholeskySystem, CompliantRows, FactoredRows, UpdatedSystem, independent_columns,
+                   independent_rows, row_scale,
                    factored_rows, refined_solve, row_reach)
 
 __all__ = ["solve_lcp", "closed_solve", "lcp_start", "row_scales", "signs_hold", "reach_displacements", "reach_forces",
@@ -32,4 +32,4 @@ __all__ = ["solve_lcp", "closed_solve", "lcp_start", "row_scales", "signs_hold",
            "FactoredRows", "UpdatedSystem", "CholeskySystem", "CompliantRows", "factored_rows", "refined_solve",
            "row_reach",
            "DEPENDENT_PIVOT", "Declined", "Stop", "SINGULAR", "CYCLE", "MAX_ITER", "SINGULAR_FORCES", "STALL",
-           "_independent", "_independent_rows", "_purified", "_row_scale"]
+           "independent_columns", "independent_rows", "purified", "row_scale"]

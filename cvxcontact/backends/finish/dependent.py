@@ -13,10 +13,10 @@ from .declined import MAX_ITER, SINGULAR_FORCES
 from .rows import (
     DEPENDENT_PIVOT,
     CompliantRows,
-    _independent_rows,
-    _row_scale,
     factored_rows,
+    independent_rows,
     row_reach,
+    row_scale,
 )
 
 log = logging.getLogger(__name__)
@@ -91,7 +91,7 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         if res is None:
             return None
         x, z, slack, _ = res
-        return x, z, slack, _row_scale(absG, kkt.stack(x), g)
+        return x, z, slack, row_scale(absG, kkt.stack(x), g)
 
     if not factored or getattr(kkt, "matrix", None) is None:
         return lawson_hanson(G, y0, start, lambda first: exact, None, tol, max_iter, purify, g)
@@ -119,7 +119,7 @@ def independent_active_set(kkt, g, y0, start, tol: float = 1e-12, max_iter: int 
         z = np.zeros(len(g))
         z[np.asarray(passive, dtype=int)] = yP
         state = kkt.fields(mask, np.concatenate([x, z[mask]]))[0]
-        return state, z, G @ x - g, _row_scale(absG, x, g)
+        return state, z, G @ x - g, row_scale(absG, x, g)
 
     return lawson_hanson(G, y0, start, steps_from, verify, tol, max_iter, purify, g)
 
@@ -132,7 +132,7 @@ def independent_interface(compliance, v0, g, y0, start, tol: float = 1e-12, max_
                          max_iter, g=np.asarray(g, dtype=float))
 
 
-def _purified(U, norms, y0, cand, chosen, factors=None, block: int = 64):
+def purified(U, norms, y0, cand, chosen, factors=None, block: int = 64):
     """(P, y): the independent rows ``cand[chosen]`` exchanged, row by row, so that the start's forces y0 on the
     rows ``cand`` (>= 0; ``U`` their unit rows, dense) become forces y >= 0 on P alone with the same resultant
     G^T y (an LP crossover: each other row j is written G_j = sum_i c_i G_i over P and its force moved onto P,
@@ -142,7 +142,7 @@ def _purified(U, norms, y0, cand, chosen, factors=None, block: int = 64):
 
     The coefficients c of every row with a force over the first P (a simplex tableau) come from one triangular
     solve with many right-hand sides: on the R of the column-pivoted QR that chose P (``factors`` = (R, piv,
-    scale) of :func:`~cvxcontact.backends.finish.rows._independent` on U^T diag(scale)), or else of a QR of
+    scale) of :func:`~cvxcontact.backends.finish.rows.independent_columns` on U^T diag(scale)), or else of a QR of
     U_P^T. An exchange changes the basis by an elementary matrix E = I - w e_i^T; their product is kept as
     I + X S (S the rows of the exchanged positions), so that a row's tableau column is c0 + X c0[S], applied to
     ``block`` rows at a time (each exchange also updates the rest of its block): O(p q) for the q rows instead of
@@ -242,9 +242,9 @@ def lawson_hanson(G, y0, start, steps_from, verify=None, tol: float = 1e-12, max
     U = unit[cand]                                         # the start's unit rows on the unknowns they touch
     U = U[:, np.flatnonzero(np.diff(U.tocsc().indptr))]    # (their span lives there)
     scale = weight / weight.max(initial=1.0)
-    chosen, Rp, piv = _independent_rows(sp.diags(scale) @ U)
+    chosen, Rp, piv = independent_rows(sp.diags(scale) @ U)
     first = cand[chosen]
-    passive, y = _purified(U, norms, y0, cand, chosen, (Rp, piv, scale)) if purify else (list(first), np.where(
+    passive, y = purified(U, norms, y0, cand, chosen, (Rp, piv, scale)) if purify else (list(first), np.where(
         np.isin(np.arange(m), first), y0, 0.0))
     step = steps_from(np.asarray(passive, dtype=int))
     if step is None:

@@ -32,11 +32,11 @@ def row_compliance(blocks, E) -> np.ndarray:
     w = np.zeros(E.shape[0])
     for b in blocks:
         R = (E @ b.jump).tocsr()
-        w += np.asarray(R.multiply(R) @ _inverse_diagonal(b.Kuu)).ravel()
+        w += np.asarray(R.multiply(R) @ inverse_diagonal(b.Kuu)).ravel()
     return w
 
 
-def _inverse_diagonal(K) -> np.ndarray:
+def inverse_diagonal(K) -> np.ndarray:
     """1 / K_jj where the diagonal is positive, 0 elsewhere (an unknown no stiffness holds)."""
     d = K.diagonal()
     return np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
@@ -58,7 +58,7 @@ def reach_displacements(blocks, E, u, phi=None):
     the check-side twin of :func:`row_reach`). The rounding of a node's displacement is relative to it: a node
     that does not move (a P2 face vertex on a rigid plane under a uniform pressure) has a slack of rounding and
     no displacement of its own, and its neighbours' displacements are the scale of that rounding."""
-    return sum((abs(E @ b.jump) @ (_inverse_diagonal(b.Kuu) * f) for b, f in _elastic_forces(blocks, u, phi)),
+    return sum((abs(E @ b.jump) @ (inverse_diagonal(b.Kuu) * f) for b, f in _elastic_forces(blocks, u, phi)),
                np.zeros(E.shape[0]))
 
 
@@ -88,7 +88,7 @@ class RowReach:
             at = np.flatnonzero(np.diff(A.tocsc().indptr))            # the unknowns the rows read
             Kup = getattr(b, "Kup", None)
             self._bodies.append((A, at, b.Kuu.tocsr()[at], None if Kup is None else abs(Kup.tocsr()[at]),
-                                 _inverse_diagonal(b.Kuu)[at]))
+                                 inverse_diagonal(b.Kuu)[at]))
 
     def _forces(self, u, phi):
         """Per body (|E J_l|, the unknowns it reads, |Kuu_l| |u_l| + |Kup_l| |phi_l| there, 1 / diag Kuu_l there)."""

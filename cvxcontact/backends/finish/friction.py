@@ -96,7 +96,7 @@ from ..factor import superlu
 from .declined import Declined, Stop
 from .directions import fixed_directions
 from .lcp import SIGN_TOL
-from .rows import _independent
+from .rows import independent_columns
 
 __all__ = ["FrictionRows", "solve_friction"]
 
@@ -355,12 +355,12 @@ def _basis(M, weight) -> np.ndarray:
     norms = np.linalg.norm(M, axis=1)
     unit = (M / np.where(norms > 0, norms, 1.0)[:, None]).T
     keep = np.zeros(len(norms), dtype=bool)
-    keep[_independent(unit * weight)] = True
+    keep[independent_columns(unit * weight)] = True
     rest = np.flatnonzero(~keep)
     if len(rest):
         Q = np.linalg.qr(unit[:, keep])[0]
         perp = unit[:, rest] - Q @ (Q.T @ unit[:, rest])
-        keep[rest[_independent(perp)]] = True
+        keep[rest[independent_columns(perp)]] = True
     return keep
 
 

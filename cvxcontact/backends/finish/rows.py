@@ -13,7 +13,7 @@ import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from ..factor import lu as dense_or_sparse_lu
-from .forces import _inverse_diagonal
+from .forces import inverse_diagonal
 
 log = logging.getLogger(__name__)
 
@@ -25,7 +25,7 @@ DEPENDENT_PIVOT = 1e-10
 """A row whose component outside the span of the rows carrying forces is below this (unit rows) is dependent
 on them (:func:`independent_active_set`): 3D overlay rows at vertices a distance ~1e-9 h apart are merged."""
 
-def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
+def independent_columns(M, tol=DEPENDENT_PIVOT, factors: bool = False):
     """Indices of a maximal set of linearly independent columns of the dense ``M`` (unit columns), by a
     column-pivoted QR, in the order of the pivots. ``factors``: also its R and pivots, (chosen, R, piv) with
     M[:, piv] = Q R (Q itself is not formed). ``M`` is overwritten (LAPACK works in it: no copy of it)."""
@@ -39,11 +39,11 @@ def _independent(M, tol=DEPENDENT_PIVOT, factors: bool = False):
 
 
 GROUP_ROWS = 256
-"""Rows in a group of :func:`_independent_rows` (a group's rows are neighbours: they share unknowns)."""
+"""Rows in a group of :func:`independent_rows` (a group's rows are neighbours: they share unknowns)."""
 
 
-def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
-    """(chosen, R, piv) of :func:`_independent` on ``U``^T for the sparse rows ``U`` (k x n, each scaled by its
+def independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
+    """(chosen, R, piv) of :func:`independent_columns` on ``U``^T for the sparse rows ``U`` (k x n, each scaled by its
     weight), choosing among fewer columns: the rows are cut into groups of about ``group`` neighbours (reverse
     Cuthill-McKee on the rows sharing unknowns; None: :data:`GROUP_ROWS`), each group's dense block (its rows on
     the unknowns they touch) keeps its own independent rows by a column-pivoted QR, and the global QR runs on the
@@ -58,7 +58,7 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
     k = U.shape[0]
     group = GROUP_ROWS if group is None else group
     if k <= 2 * group:
-        return _independent(U.T.toarray(), tol, factors=True)
+        return independent_columns(U.T.toarray(), tol, factors=True)
     pattern = abs(U) @ abs(U).T
     order = csgraph.reverse_cuthill_mckee(sp.csr_matrix(pattern), symmetric_mode=True)
     kept, drops = [], []                              # drops: (dropped rows, group's kept rows, c)
@@ -66,7 +66,7 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
         rows = order[g0:g0 + group]
         block = U[rows]
         block = block[:, np.flatnonzero(np.diff(block.tocsc().indptr))].toarray().T
-        chosen, R, piv = _independent(block, tol, factors=True)
+        chosen, R, piv = independent_columns(block, tol, factors=True)
         p = len(chosen)
         kept.append(rows[chosen])
         if p < len(rows):
@@ -76,7 +76,7 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
     kept = np.concatenate(kept)
     cols = U[kept]
     cols = cols[:, np.flatnonzero(np.diff(cols.tocsc().indptr))].toarray().T
-    local, Rk, pivk = _independent(cols, tol, factors=True)
+    local, Rk, pivk = independent_columns(cols, tol, factors=True)
     p = len(local)
     R = np.empty((p, k))
     R[:, :len(kept)] = Rk[:p]
@@ -88,7 +88,7 @@ def _independent_rows(U, tol=DEPENDENT_PIVOT, group: int | None = None):
     return kept[local], R, piv
 
 
-def _row_scale(absG, x, g):
+def row_scale(absG, x, g):
     """S_j = (|G| |x|)_j + |g_j|, the displacement scale of each row's slack G_j x - g_j (floored at 1e-14 of
     the largest). With ``absG`` :func:`row_reach` the scale also counts the row's nodes' neighbours."""
     S = absG @ np.abs(x) + np.abs(g)
@@ -97,13 +97,13 @@ def _row_scale(absG, x, g):
 
 def row_reach(A, G):
     """|G| + |G| diag(A)^{-1} |A| (sparse, m x n; only the unknowns with a positive stiffness diagonal count in
-    the second term): with it, :func:`_row_scale` gives S_j = (|G| |x|)_j + |g_j| plus the displacement that
+    the second term): with it, :func:`row_scale` gives S_j = (|G| |x|)_j + |g_j| plus the displacement that
     the elastic forces at row j's unknowns, (|A| |x|)_k, produce through their own stiffness A_kk. A node that
     does not move (held at the gap by a rigid plane, carrying no force: a P2 face vertex under a uniform
     pressure) has a slack of rounding and no displacement of its own, so that its slack over its own scale
     is rounding over rounding, of either sign; its neighbours' displacements are the scale of that rounding."""
     A, absG = sp.csr_matrix(A), abs(sp.csr_matrix(G))
-    return (absG + absG @ sp.diags(_inverse_diagonal(A)) @ abs(A)).tocsr()
+    return (absG + absG @ sp.diags(inverse_diagonal(A)) @ abs(A)).tocsr()
 
 
 class FactoredRows:
@@ -213,7 +213,7 @@ class FactoredRows:
         z = np.zeros(self.G.shape[0])
         z[passive] = w[:len(passive)]
         self.sizes.append((len(passive), len(rows) - len(passive)))
-        return None, z, self.h - Cw, _row_scale(self.reach, x, self.g)
+        return None, z, self.h - Cw, row_scale(self.reach, x, self.g)
 
     def exact(self, mask, passive, steps: int = 3):
         """(x, y) solving (26) on the rows ``passive`` with every residual within 1e-12 of its row's scale
@@ -512,7 +512,7 @@ class CompliantRows:
             spread[:] = 0.0
             spread[cols] = y[P]
         v = self.v0 - c.kept_B[:, :c.count] @ spread        # (no n_Gamma x |P| copy of B's columns)
-        return y, y.copy(), self.R @ v - self.g, _row_scale(self.absR, v, self.g)
+        return y, y.copy(), self.R @ v - self.g, row_scale(self.absR, v, self.g)
 
     def coefficients(self, passive, j) -> np.ndarray | None:
         """c with W_PP c = W_Pj: the row j as the combination sum c_i R_i of the rows P nearest to it in the

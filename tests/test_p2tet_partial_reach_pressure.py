@@ -9,8 +9,8 @@ the answer is uniaxial strain: u_z = -DELTA z / H, the pressure p = c33 DELTA / 
 consistent load (0 at a vertex, A/3 per triangle of a midpoint's edge, by hand: reach_scenes.p2_loads). Before,
 lambda_h solved M lambda = r with the P2 mass restricted to each obstacle's nodes, which drops the faces' couplings
 to the other obstacle's nodes: it read 0.44 ... 1.54 p (x = 0.4), 0 ... 1.875 p (x = 0.15 h: 0 at the lone
-vertices, whose forces are 0), 0.19 ... 1.55 p (oblique), at 3, 6 and 12 cells alike (the error does not fall
-with h), its forces and u right.
+vertices, whose forces are 0), 0.031 ... 1.875 p (the oblique line 0.3 x + y = 0.93; 0.38 ... 1.56 p on 6 cells,
+0.39 ... 1.62 p on 12), the error not falling with h (3, 6 and 12 cells), its forces and u right.
 """
 
 import functools
@@ -52,7 +52,7 @@ def _solved(split):
 @pytest.mark.parametrize("split", list(SPLITS))
 def test_a_uniform_push_on_complementary_obstacles_reads_the_closed_form_at_every_row(split):
     """u and the forces the closed form (they were before), lambda = p at every row of both obstacles (before
-    0.44 ... 1.54 p, 0 ... 1.875 p, 0.19 ... 1.55 p: module docstring)."""
+    0.44 ... 1.54 p, 0 ... 1.875 p, 0.031 ... 1.875 p: module docstring)."""
     sol = _solved(split)
     for u, x in zip(sol.u, sol.points):
         assert np.abs(u[:, 2] + DELTA * x[:, 2] / H).max() <= 1e-10 * DELTA                 # measured 4.2e-16

@@ -94,7 +94,7 @@ def test_obstacles_that_both_reach_the_vertex_where_they_meet_are_the_closed_for
     straddled, that vertex is a node of both pairs (an end of each run: Simpson's h/6 twice, its h/3 inside) and
     the answer is the closed form to rounding. Its two rows repeat each other, so W_AA of the finish's closed rows
     is singular: under Signorini the refinement of the closed rows (``closed_solve``) failed its Cholesky factor
-    with an untyped LinAlgError under OPENBLAS_CORETYPE=Haswell and Nehalem (least squares now); how the vertex's
+    with an untyped LinAlgError under OPENBLAS_CORETYPE=Haswell and Nehalem (least-norm now); how the vertex's
     force splits between the two pairs is not unique (it differs with the kernels), its sum is."""
     sol, short, error = _solved(6, compliant, 1 / 3, 1e-9)
     assert sum(len(c.points) for c in sol.contacts) == 2 * 6 + 2

@@ -154,8 +154,9 @@ def closed_solve(W, r, active, kept: LastFactor | None = None) -> np.ndarray:
     D W D; ``kept``: the :class:`LastFactor` that :func:`solve_lcp` filled on this very ``W``, whose factor is
     reused if it is of the rows A (no second factorisation), else W_AA is factorised here. Where W_AA is singular
     (a row repeated: a node that two obstacles coinciding there both hold, each closed at the same slack) z_A is
-    its least-squares solution of least norm (the Cholesky factor fails there or not by the BLAS kernels' rounding).
-    """
+    the least-norm solution of the equilibrated system (its eigenvalues above 1e-12 of the largest; the Cholesky
+    factor fails there or not by the BLAS kernels' rounding). Raises :class:`numpy.linalg.LinAlgError` if W_AA is
+    indefinite (an eigenvalue below -1e-10 of the largest: not a compliance)."""
     z = np.zeros(len(r))
     at = np.flatnonzero(active)
     if not len(at):
@@ -167,7 +168,11 @@ def closed_solve(W, r, active, kept: LastFactor | None = None) -> np.ndarray:
         try:
             c = sla.cho_factor(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :], overwrite_a=True)
         except np.linalg.LinAlgError:
-            z[at] = D * sla.lstsq(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :], rhs)[0]
+            lam, V = np.linalg.eigh(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :])
+            if lam[0] < -1e-10 * lam[-1]:
+                raise
+            keep = lam > 1e-12 * lam[-1]
+            z[at] = D * (V[:, keep] @ ((V[:, keep].T @ rhs) / lam[keep]))
             return z
     z[at] = D * sla.cho_solve(c, rhs)
     return z

@@ -98,15 +98,16 @@ DIAGONAL3 = np.array([np.cos(0.5), np.sin(0.5)])
 """The in-plane direction of the 3D scenes' shear (a diagonal of the frame (x, y))."""
 
 
-def uniform_layer3d(tau, law, n=2, cell="tetra"):
+def uniform_layer3d(tau, law, n=2, cell="tetra", obstacles=(FLOOR3D,)):
     """A unit box (n x n x 1 cells, nu = 0) under (tau_x, tau_y, -p) on its top along :data:`DIAGONAL3` and the
     complementary shear on its sides, so that the state is uniform (sigma_zz = -p, sigma_xz = tau_x, sigma_yz =
-    tau_y), ``law`` against the rigid plane z = 0. Stuck: u = (tau_x z / G, tau_y z / G, -p z / E), G = E / 2."""
+    tau_y), ``law`` against the rigid plane z = 0 (or against ``obstacles`` that together are that plane, each
+    reaching part of the bottom). Stuck: u = (tau_x z / G, tau_y z / G, -p z / E), G = E / 2."""
     q = tau * DIAGONAL3
     body = cc.Body(cc.box(nx=n, ny=n, nz=1, cell=cell), steel(nu=0.0), contact="bottom",
                    traction={"top": (q[0], q[1], -P), "left": (0.0, 0.0, -q[0]), "right": (0.0, 0.0, q[0]),
                              "front": (0.0, 0.0, -q[1]), "back": (0.0, 0.0, q[1])})
-    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=law)])
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o, law=law) for o in obstacles])
 
 
 def _side_shear(q):

@@ -26,11 +26,11 @@ def triangles_at(x, y):
     return (np.abs(p - [x, y]).max(axis=2) < 1e-9).any(axis=1).sum()
 
 
-def line(lo, hi):
-    """The line y = 0 under lo <= x < hi, its distance along the ray -y; +inf off it (2D)."""
+def line(lo, hi, tol=0.0):
+    """The line y = 0 under lo - tol <= x < hi + tol, its distance along the ray -y; +inf off it (2D)."""
     def distance(x, nu):
         x = np.asarray(x, dtype=float)
-        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 1], np.inf)
+        return np.where((x[:, 0] >= lo - tol) & (x[:, 0] < hi + tol), x[:, 1], np.inf)
     return cc.Rigid("line", distance, f"the line y = 0 under {lo} <= x < {hi}",
                     sensitivity=lambda x, nu: np.tile([0.0, 1.0], (len(x), 1)), dim=2)
 

@@ -70,3 +70,20 @@ def test_closed_solve_matches_a_dense_solve_with_and_without_the_kept_factor():
     assert not closed_solve(W, r, np.zeros(12, dtype=bool)).any()
     with pytest.raises(np.linalg.LinAlgError):
         closed_solve(np.array([[1.0, 2.0], [2.0, 1.0]]), np.ones(2), np.ones(2, dtype=bool))   # indefinite
+
+
+def test_closed_solve_of_repeated_rows_is_the_least_norm_solution():
+    """Two closed rows that repeat each other (a node two coinciding obstacles both hold): W_AA singular, positive
+    semi-definite. A consistent slack is met (W z = r) and split evenly between the two (the least-norm solution of
+    the equilibrated system), under every kernel set; the Cholesky factor failed there with a LinAlgError under
+    OPENBLAS_CORETYPE=Haswell and Nehalem (tests/test_p2_line_reach_hole.py)."""
+    rng = np.random.default_rng(5)
+    B = rng.standard_normal((5, 8)) * np.logspace(0, 3, 5)[:, None]
+    B = np.vstack([B[:1], B])                                      # row 0 repeated as row 1
+    W = B @ B.T
+    r = W @ rng.standard_normal(6)
+    z = closed_solve(W, r, np.ones(6, dtype=bool))
+    assert rel(W @ z, r) < 1e-12                                   # measured <= 1.6e-15 (five kernel sets)
+    assert abs(z[0] - z[1]) <= 1e-11 * np.abs(z).max()            # measured <= 3.5e-14
+    ref = np.linalg.solve(W[1:, 1:], r[1:])                        # the rows merged: unique, its row 0 the sum
+    assert rel(np.concatenate([[z[0] + z[1]], z[2:]]), ref) < 1e-10                # measured <= 1.3e-13

@@ -9,19 +9,21 @@ the answer is uniaxial strain: u_z = -DELTA z / H, the pressure p = c33 DELTA / 
 consistent load (0 at a vertex, A/3 per triangle of a midpoint's edge, by hand: reach_scenes.p2_loads). Before,
 lambda_h solved M lambda = r with the P2 mass restricted to each obstacle's nodes, which drops the faces' couplings
 to the other obstacle's nodes: it read 0.44 ... 1.54 p (x = 0.4), 0 ... 1.875 p (x = 0.15 h: 0 at the lone
-vertices, whose forces are 0), 0.19 ... 1.55 p (oblique), at 3, 6 and 12 cells alike (the error does not fall
-with h), its forces and u right.
+vertices, whose forces are 0), 0.031 ... 1.875 p (the oblique line 0.3 x + y = 0.93; 0.38 ... 1.56 p on 6 cells,
+0.39 ... 1.62 p on 12), the error not falling with h (3, 6 and 12 cells), its forces and u right.
 """
 
 import functools
 
 import numpy as np
 import pytest
+from friction_scenes import DIAGONAL3, uniform_layer3d
 from hex_scenes import DELTA, SIDES, STEEL, H
 from reach_scenes import OBLIQUE, half, p2_loads, strip, triangles_at
 
 import cvxcontact as cc
 from cvxcontact.fem.space import space
+from cvxcontact.solution.slipestimate import friction_of
 
 pytestmark = [pytest.mark.numerics,
               pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]   # coarse: 2, 3 faces span a zone
@@ -34,8 +36,8 @@ SPLITS = {"x = 0.4": (strip(-1.0, 0.4), strip(0.4, 2.0)),
           "oblique": (half(*OBLIQUE[1], True), half(*OBLIQUE[1], False))}
 
 
-def _scene(obstacles):
-    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+def _scene(obstacles, n=3):
+    body = cc.Body(cc.box(nx=n, ny=n, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 
@@ -50,7 +52,7 @@ def _solved(split):
 @pytest.mark.parametrize("split", list(SPLITS))
 def test_a_uniform_push_on_complementary_obstacles_reads_the_closed_form_at_every_row(split):
     """u and the forces the closed form (they were before), lambda = p at every row of both obstacles (before
-    0.44 ... 1.54 p, 0 ... 1.875 p, 0.19 ... 1.55 p: module docstring)."""
+    0.44 ... 1.54 p, 0 ... 1.875 p, 0.031 ... 1.875 p: module docstring)."""
     sol = _solved(split)
     for u, x in zip(sol.u, sol.points):
         assert np.abs(u[:, 2] + DELTA * x[:, 2] / H).max() <= 1e-10 * DELTA                 # measured 4.2e-16
@@ -98,3 +100,48 @@ def test_a_lone_vertex_with_no_midpoint_reads_its_force_over_its_red_hat():
     assert pair.size == 1
     w = triangles_at(0.0, 0.0) * A / 12
     assert abs(pair.multiplier(np.array([2.0]))[0] - 2.0 / w) <= 1e-12 * 2.0 / w        # measured 0
+
+
+# p / P along the part (x, y in m) and the split: the oblique line's p has a gradient sqrt(5) P / m
+LINEAR = {"x = 0.4": (lambda x: 1.0 + x[:, 0], (strip(-1.0, 0.4), strip(0.4, 2.0))),
+          "oblique": (lambda x: 1.0 + x[:, 0] + 2.0 * x[:, 1], (half(*OBLIQUE[1], True), half(*OBLIQUE[1], False)))}
+
+
+@pytest.mark.parametrize("split", list(LINEAR))
+def test_a_linear_pressure_is_read_to_first_order_next_to_where_the_reach_stops(split):
+    """The consistent loads of a linear pressure p over the whole part (P2 face mass times p at its nodes: what
+    the two obstacles' forces are when the contact carries p), each obstacle given its own nodes' rows, on 3, 6, 12
+    cells a side: lambda_h reads p to O(h), the error on the rows next to where the reach stops (the couplings to
+    the other obstacle's nodes lumped onto the diagonal are exact for a constant, first order for a slope; the P2
+    mass of a part reached at every node reads p to rounding). Measured max |lambda - p| / P: x = 0.4, p = P (1 +
+    x): 0.314, 0.150, 0.0746 (times nx 0.94, 0.90, 0.90; 0.0373 on 24); oblique, p = P (1 + x + 2 y): 0.795, 0.463,
+    0.201 (times nx 2.39, 2.78, 2.41). Before, the restricted mass read it to O(1): 0.90, 0.82, 0.75 and 2.6,
+    1.8, 1.9. (A rate: the bounds are the rate's, rounding is 1e-15 of them.)"""
+    field, obstacles = LINEAR[split]
+    errors = []
+    for n in (3, 6, 12):
+        stack = space(2, "tetra").contact(_scene(obstacles, n), "sigma1", cc.Signorini()).interface
+        error = 0.0
+        for pair in stack.interfaces:
+            t, hit = pair.traces[0], np.asarray(pair.reach)
+            p = P * field(np.asarray(t.points))
+            error = max(error, np.abs(pair.multiplier((t.mass @ p)[hit]) - p[hit]).max() / P)
+        errors.append(error * n)
+    assert max(errors) <= 4.0                                    # measured 0.94 (x = 0.4), 2.78 (oblique)
+    assert errors[2] / 12 <= errors[0] / 3 / 3                   # measured 4.2, 4.0 times smaller on 12 than on 3
+
+
+def test_the_shear_of_a_stuck_uniform_layer_is_read_at_every_row_of_both_obstacles():
+    """3D P2 friction's t_h against complementary obstacles (split at x = 0.4: friction_scenes.uniform_layer3d
+    on 3 x 3 cells, Tresca 2 p, tau = 0.2 p, stuck) is read by the same matrix as lambda_h (``friction_of``,
+    ``QuadraticTrace.friction_fields``): the traction on the body is -tau along the shear's diagonal at every
+    row (its equilibrium with the top's tau), lambda_h = p. Measured 5.8e-14 tau, 1.2e-14 p. Before, 0.49 tau
+    off on the obstacle under x < 0.4, 0.29 tau on the other."""
+    tau, p = 0.2e7, 1e7                                          # friction_scenes.P
+    sol = cc.solve(uniform_layer3d(tau, cc.Tresca(2 * p), n=3, obstacles=(strip(-1.0, 0.4), strip(0.4, 2.0))),
+                   degree=2, condition="sigma1")
+    assert sol.ok
+    assert sum(len(c.points) for c in sol.contacts) == 49
+    for i, c in enumerate(sol.contacts):
+        assert np.abs(friction_of(sol, i).t + tau * DIAGONAL3).max() <= 1e-10 * tau      # measured 5.8e-14 tau
+        assert np.abs(np.asarray(c.lam) - p).max() <= 1e-10 * p                          # measured 1.2e-14 p

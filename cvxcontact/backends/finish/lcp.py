@@ -152,17 +152,29 @@ def closed_solve(W, r, active, kept: LastFactor | None = None) -> np.ndarray:
     """z with W_AA z_A = r_A on the closed rows A = ``active`` (bool per row), zero elsewhere: the force that
     closes a slack r left on them (scaled units). Solved as :func:`solve_lcp` solves, on the equilibrated
     D W D; ``kept``: the :class:`LastFactor` that :func:`solve_lcp` filled on this very ``W``, whose factor is
-    reused if it is of the rows A (no second factorisation), else W_AA is factorised here.
-    Raises :class:`numpy.linalg.LinAlgError` if W_AA is singular."""
+    reused if it is of the rows A (no second factorisation), else W_AA is factorised here. Where W_AA is singular
+    (a row repeated: a node that two obstacles coinciding there both hold, each closed at the same slack) z_A is
+    the least-norm solution of the equilibrated system (its eigenvalues above 1e-12 of the largest; the Cholesky
+    factor fails there or not by the BLAS kernels' rounding). Raises :class:`numpy.linalg.LinAlgError` if W_AA is
+    indefinite (an eigenvalue below -1e-10 of the largest: not a compliance)."""
     z = np.zeros(len(r))
     at = np.flatnonzero(active)
     if not len(at):
         return z
     D = _equilibration(W)[at]
+    rhs = D * np.asarray(r, dtype=float)[at]
     c = kept.get(active) if kept is not None and kept.owner is W else None
     if c is None:
-        c = sla.cho_factor(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :], overwrite_a=True)
-    z[at] = D * sla.cho_solve(c, D * np.asarray(r, dtype=float)[at])
+        try:
+            c = sla.cho_factor(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :], overwrite_a=True)
+        except np.linalg.LinAlgError:
+            lam, V = np.linalg.eigh(D[:, None] * W.take(at, axis=0).take(at, axis=1) * D[None, :])
+            if lam[0] < -1e-10 * lam[-1]:
+                raise
+            keep = lam > 1e-12 * lam[-1]
+            z[at] = D * (V[:, keep] @ ((V[:, keep].T @ rhs) / lam[keep]))
+            return z
+    z[at] = D * sla.cho_solve(c, rhs)
     return z
 
 

@@ -270,3 +270,25 @@ def test_the_normal_forces_are_a_non_negative_measure_on_the_zero_set(name, shar
     F = reaction[bottom, 2]
     misfit = so.nnls(np.hstack(columns), F, maxiter=20000)[1]
     assert misfit <= 1e-12 * np.linalg.norm(F)
+
+
+def test_the_sign_relations_are_solved_for_all_ridges_at_once():
+    """:func:`cvxcontact.backends.ridges._flips` on the pattern met on the box under Coulomb: three ridges, each with
+    a product of relations -1, around two vertices (9, 12) where w is 0 (their edges free). Flipping each triangle's
+    lightest relation in turn, the third flip ((8, 12)) undoes the second's; the flips returned make every product
+    +1 and touch free edges only. Where the free edges cannot (a triangle with none, or two triangles asking opposite
+    flips of their one shared free edge) None."""
+    from cvxcontact.backends.ridges import _flips
+
+    keys = [[(8, 9), (5, 9), (5, 8)], [(8, 11), (11, 12), (8, 12)], [(8, 12), (12, 13), (8, 13)]]
+    same = {e: 1.0 for edges in keys for e in edges}
+    same[(5, 8)] = same[(8, 11)] = same[(8, 13)] = -1.0
+    weight = {e: 0.0 if 9 in e or 12 in e else 1.0 for e in same}
+    flips = _flips(keys, same, weight, 0.0)
+    assert flips is not None and all(weight[e] == 0.0 for e in flips)
+    assert all(np.prod([-same[e] if e in flips else same[e] for e in edges]) > 0 for edges in keys)
+    assert _flips([[(0, 1), (1, 2), (0, 2)]], {(0, 1): -1.0, (1, 2): 1.0, (0, 2): 1.0},
+                  {(0, 1): 1.0, (1, 2): 1.0, (0, 2): 1.0}, 0.0) is None
+    two = [[(0, 1), (1, 2), (0, 2)], [(0, 1), (1, 3), (0, 3)]]
+    signs = {(0, 1): 1.0, (1, 2): -1.0, (0, 2): 1.0, (1, 3): 1.0, (0, 3): 1.0}
+    assert _flips(two, signs, {e: 0.0 if e == (0, 1) else 1.0 for e in signs}, 0.0) is None

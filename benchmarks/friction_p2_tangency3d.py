@@ -4,8 +4,8 @@
         python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [held] [shears] [coulomb]
 
 ``sphere``: a rigid sphere pressed 5 mm into a clamped P2 block (tests/scenes3d.py ``sphere_into_block``, 4 x 4 x 2
-cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish
-off) at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
+cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish off)
+at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
 (``frictiontangency.tangency_polish``); then, as the threshold tends to 0, the distance of the finished answer and of
 the cuts' alone to the frictionless cones' exact answer (the tangency Newton). ``boxes``: the 3D boxes lifting at a
 corner (tests/friction_box_scenes.py), where the tangency Newton declines and the sheared box is finished on its
@@ -13,8 +13,8 @@ ridges (``ridges.ridge_newton``): at cuts' stops 1e-7 .. 1e-11 the answer finish
 against the one at the package's stop. ``shears``: the box under other shears and thresholds, the held-side box and
 Coulomb on the box sheared along a diagonal (where touching points and ridges mix): finished or not, and the cuts'
 answer alone against the finished one. ``coulomb``: Coulomb on the box sheared along a diagonal finished from cuts
-stopped at 1e-9 .. 1e-11 and on the mirrored mesh, against the answer at the package's stop. Distances: the largest displacement difference over the largest
-displacement.
+stopped at 1e-9 .. 1e-11 and on the mirrored mesh, against the answer at the package's stop. Distances: the largest
+displacement difference over the largest displacement.
 """
 
 from __future__ import annotations
@@ -120,7 +120,9 @@ def shears() -> None:
 
 
 def coulomb() -> None:
-    make = lambda mesh=fb.BOX, sign=1.0: fb.sheared(0.2 * fb.P * fb.DIAGONAL * [1.0, sign], cc.Coulomb(0.3), mesh=mesh)
+    def make(mesh=fb.BOX, sign=1.0):
+        return fb.sheared(0.2 * fb.P * fb.DIAGONAL * [1.0, sign], cc.Coulomb(0.3), mesh=mesh)
+
     ref = solve(make())
     print(f"Coulomb 0.3, box sheared along a diagonal: finishes {ref.finished}, CPU {ref.cpu:.1f} s\n")
     print("| cuts' stop | finishes | its answer from the package's | cuts' alone from the package's | CPU s |\n"

@@ -154,11 +154,11 @@ def _ridge_start(cells, touching, r):
     (k, 3); a Declined where a triangle's relations admit no signs of its own. An edge's s is read from its
     midpoint's slack (same signs: |mean| the larger); on each ridge
     the three relations' product is +1 (q = -(v . L)^2: s_ab = sign(v_a v_b)); where it is not, the relation
-    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0
-    to the start's rounding: either sign holds), each triangle in turn; where a flip undid one a neighbour needed,
-    the free relations are solved for all at once (:func:`_flips`). The relations are per edge, not per vertex: around a triangle
-    that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist around a
-    triangle bounded by three ridges), each ridge's square is still that of a linear function."""
+    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0 to
+    the start's rounding: either sign holds), each triangle in turn; where a flip undid one a neighbour needed, the
+    free relations are solved for all at once (:func:`_flips`). The relations are per edge, not per vertex: around a
+    triangle that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist
+    around a triangle bounded by three ridges), each ridge's square is still that of a linear function."""
     verts = np.unique(cells[touching, :3])
     nodes = np.unique(cells[touching])
     vid, nid = np.searchsorted(verts, cells[touching, :3]), np.searchsorted(nodes, cells[touching])

@@ -1,19 +1,20 @@
 """Benchmark: how far the friction finish under the 3D P2 cones stands from the exact answer (Tresca, "gamma3").
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 PYTHONPATH=.:tests \\
-        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [held] [shears]
+        python benchmarks/friction_p2_tangency3d.py [sphere] [boxes] [held] [shears] [coulomb]
 
 ``sphere``: a rigid sphere pressed 5 mm into a clamped P2 block (tests/scenes3d.py ``sphere_into_block``, 4 x 4 x 2
-cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish
-off) at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
+cells, Tresca 1 MPa), touching each top triangle at isolated points: the cuts' answer alone (the tangency finish off)
+at stops 1e-7 .. 1e-11 (``friction.CONE_ROUNDING``) against the answer finished at the tangency points
 (``frictiontangency.tangency_polish``); then, as the threshold tends to 0, the distance of the finished answer and of
 the cuts' alone to the frictionless cones' exact answer (the tangency Newton). ``boxes``: the 3D boxes lifting at a
 corner (tests/friction_box_scenes.py), where the tangency Newton declines and the sheared box is finished on its
 ridges (``ridges.ridge_newton``): at cuts' stops 1e-7 .. 1e-11 the answer finished from them and the cuts' alone
 against the one at the package's stop. ``shears``: the box under other shears and thresholds, the held-side box and
 Coulomb on the box sheared along a diagonal (where touching points and ridges mix): finished or not, and the cuts'
-answer alone against the finished one. Distances: the largest displacement difference over the largest
-displacement.
+answer alone against the finished one. ``coulomb``: Coulomb on the box sheared along a diagonal finished from cuts
+stopped at 1e-9 .. 1e-11 and on the mirrored mesh, against the answer at the package's stop. Distances: the largest
+displacement difference over the largest displacement.
 """
 
 from __future__ import annotations
@@ -118,8 +119,27 @@ def shears() -> None:
         print(f"| {name} | {done.finished} | {apart(cuts, done):.2e} | {done.cpu:.1f} |", flush=True)
 
 
+def coulomb() -> None:
+    def make(mesh=fb.BOX, sign=1.0):
+        return fb.sheared(0.2 * fb.P * fb.DIAGONAL * [1.0, sign], cc.Coulomb(0.3), mesh=mesh)
+
+    ref = solve(make())
+    print(f"Coulomb 0.3, box sheared along a diagonal: finishes {ref.finished}, CPU {ref.cpu:.1f} s\n")
+    print("| cuts' stop | finishes | its answer from the package's | cuts' alone from the package's | CPU s |\n"
+          "|---|---|---|---|---|")
+    for tol in (1e-9, 1e-10, 1e-11):
+        done, cuts = solve(make(), tol), solve(make(), tol, polish=False)
+        print(f"| {tol:.0e} | {done.finished} | {apart(done, ref):.2e} | {apart(cuts, ref):.2e} | {done.cpu:.1f} |",
+              flush=True)
+    mirrored = solve(make(fb.mirrored_box(), -1.0))
+    at = {tuple(np.round(p, 9)): i for i, p in enumerate(mirrored.points[0])}
+    image = np.array([at[tuple(np.round(p * [1.0, -1.0, 1.0] + [0.0, 1.0, 0.0], 9) + 0.0)] for p in ref.points[0]])
+    off = np.abs(mirrored.u[0][image] * [1.0, -1.0, 1.0] - ref.u[0]).max() / np.abs(ref.u[0]).max()
+    print(f"\nmirrored about y = 1/2 (shear (q_x, -q_y)): finishes {mirrored.finished}, from the first {off:.1e}")
+
+
 if __name__ == "__main__":
     warnings.simplefilter("ignore")
     which = sys.argv[1:] or ["sphere", "boxes"]
     for name in which:
-        {"sphere": sphere, "boxes": boxes, "held": held, "shears": shears}[name]()
+        {"sphere": sphere, "boxes": boxes, "held": held, "shears": shears, "coulomb": coulomb}[name]()

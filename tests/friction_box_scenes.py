@@ -95,6 +95,14 @@ def lifting_key(name):
     return ("P2 box lifting at a corner, Tresca 3 MPa", name), lambda: watched_p2(LIFTING[name](cc.Tresca(3e6)))
 
 
+def coulomb_key():
+    """(key, make) of conftest's ``shared`` for the finished P2 answer of the box sheared by 0.2 p along
+    :data:`DIAGONAL` under Coulomb mu = 0.3, with the finish's outcomes (``friction_scenes.watched_p2``, one per
+    polish of Coulomb's fixed point): tests/test_friction_p2_lifting3d.py and test_friction_p2_ridges3d.py."""
+    return ("P2 box sheared along a diagonal, Coulomb 0.3",), \
+        lambda: watched_p2(sheared(0.2 * P * DIAGONAL, cc.Coulomb(0.3)))
+
+
 def apart(one, other):
     """The largest difference of two solutions' displacements over the largest displacement."""
     scale = max(np.abs(u).max() for u in one.u)

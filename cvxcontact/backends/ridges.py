@@ -118,6 +118,35 @@ def _touching_points(cells, b, candidates, covered, reach) -> dict:
     return points
 
 
+def _flips(keys, same, weight, bound):
+    """The relations to flip so that every ridge's three relations have the product +1, all at once: the edges of
+    weight at most ``bound`` (:data:`SIGN_WEIGHT` of the largest: a vertex where w is 0 to the start's rounding)
+    are free, the others keep ``same``; each triangle (``keys``: its three edges) asks that the number of its
+    free edges flipped be odd where its measured product is -1, even else, a linear system over GF(2) solved by
+    elimination (the lightest relation of each triangle flipped in turn may undo a flip its neighbour needed:
+    measured on the box sheared along a diagonal under Coulomb, three triangles around two vertices where w is 0).
+    Returns the set of edges to flip, or None where no flips of free edges satisfy every triangle."""
+    free = sorted({e for edges in keys for e in edges if weight[e] <= bound})
+    col = {e: i for i, e in enumerate(free)}
+    A = np.zeros((len(keys), len(free) + 1), dtype=bool)          # [coefficients | right-hand side] over GF(2)
+    for k, edges in enumerate(keys):
+        A[k, [col[e] for e in edges if e in col]] = True
+        A[k, -1] = np.prod([same[e] for e in edges]) < 0
+    pivots, row = [], 0
+    for c in range(len(free)):
+        hit = np.flatnonzero(A[row:, c])
+        if row == len(A) or not len(hit):
+            continue
+        A[[row, row + hit[0]]] = A[[row + hit[0], row]]
+        others = np.flatnonzero(A[:, c])
+        A[others[others != row]] ^= A[row]
+        pivots.append(c)
+        row += 1
+    if A[row:, -1].any():
+        return None
+    return {free[c] for k, c in enumerate(pivots) if A[k, -1]}
+
+
 def _ridge_start(cells, touching, r):
     """(nodes, vid, P, w, sign) of the ridge triangles ``touching``: their P2 node rows, the vertex indices per
     triangle, P (w's values at the nodes: a vertex's own, a midpoint's (w_a + s w_b) / 2, s = ±1 the edge's relation
@@ -125,10 +154,11 @@ def _ridge_start(cells, touching, r):
     (k, 3); a Declined where a triangle's relations admit no signs of its own. An edge's s is read from its
     midpoint's slack (same signs: |mean| the larger); on each ridge
     the three relations' product is +1 (q = -(v . L)^2: s_ab = sign(v_a v_b)); where it is not, the relation
-    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0
-    to the start's rounding: either sign holds). The relations are per edge, not per vertex: around a triangle
-    that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist around a
-    triangle bounded by three ridges), each ridge's square is still that of a linear function."""
+    of least weight |w_a| |w_b| flips if that is at most :data:`SIGN_WEIGHT` of the largest (a vertex where w is 0 to
+    the start's rounding: either sign holds), each triangle in turn; where a flip undid one a neighbour needed, the
+    free relations are solved for all at once (:func:`_flips`). The relations are per edge, not per vertex: around a
+    triangle that is no ridge w may change its sign (measured on the box sheared by (0.2, 0.2) p: one such twist
+    around a triangle bounded by three ridges), each ridge's square is still that of a linear function."""
     verts = np.unique(cells[touching, :3])
     nodes = np.unique(cells[touching])
     vid, nid = np.searchsorted(verts, cells[touching, :3]), np.searchsorted(nodes, cells[touching])
@@ -142,14 +172,18 @@ def _ridge_start(cells, touching, r):
             weight[key] = da * db
     heaviest = max(weight.values(), default=0.0)
     keys = [[tuple(sorted((int(vid[k, a]), int(vid[k, b])))) for a, b, _ in EDGES] for k in range(len(touching))]
-    for edges in keys:
+    measured = dict(same)
+    for edges in keys:                              # each triangle's lightest relation, in turn
         if np.prod([same[e] for e in edges]) < 0:
             light = min(edges, key=lambda e: weight[e])
             if weight[light] > SIGN_WEIGHT * heaviest:
-                return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
+                break
             same[light] = -same[light]
-    if any(np.prod([same[e] for e in edges]) < 0 for edges in keys):
-        return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
+    if any(np.prod([same[e] for e in edges]) < 0 for edges in keys):     # one flip undid another's: all at once
+        flips = _flips(keys, measured, weight, SIGN_WEIGHT * heaviest)
+        if flips is None:
+            return Declined(Stop.NOT_POSED, "a touching triangle's slack is no square of a linear function")
+        same = {e: -v if e in flips else v for e, v in measured.items()}
     lo = np.array([[e[0] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
     hi = np.array([[e[1] for e in edges] for edges in keys], dtype=int).reshape(-1, 3)
     sign = np.array([[same[e] for e in edges] for edges in keys]).reshape(-1, 3)

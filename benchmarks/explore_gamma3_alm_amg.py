@@ -197,7 +197,8 @@ def run(n: int, a) -> dict:
     c0 = time.process_time()
     x, _z, k, settled, recs = alm_mod.alm(
         A, F, G, g, a.steps, log=lambda r: print("   ", r, flush=True), beta=a.beta, tau=a.tau, retries=a.retries,
-        start=start, newton_solver=None if a.direct else factory, loose=None if a.direct else a.loose, cpu=cpu)
+        start=start, newton_solver=None if a.direct else factory, loose=None if a.direct else a.loose, cpu=cpu,
+        armijo=a.armijo)
     out["alm_cpu"] = time.process_time() - c0
     out.update({f"cpu_{q}": v for q, v in cpu.items()})
     its = solver["s"].its if "s" in solver else []
@@ -240,6 +241,7 @@ def main() -> None:
     ap.add_argument("--hierarchy", choices=("bodies", "penalised"), default="bodies")
     ap.add_argument("--cold", action="store_true", help="start from x = 0, y = 0 (not the sigma1 answer)")
     ap.add_argument("--direct", action="store_true", help="Newton steps by PARDISO (explore_gamma3_alm's)")
+    ap.add_argument("--armijo", action="store_true", help="full Newton steps where Armijo holds (else exact)")
     ap.add_argument("--no-condensed", dest="condensed", action="store_false")
     a = ap.parse_args()
     for n in a.n:

@@ -195,14 +195,14 @@ def run(n: int, a) -> dict:
 
     cpu = {}
     c0 = time.process_time()
-    x, _z, k, settled, recs = alm_mod.alm(
+    x, _z, _k, settled, recs = alm_mod.alm(
         A, F, G, g, a.steps, log=lambda r: print("   ", r, flush=True), beta=a.beta, tau=a.tau, retries=a.retries,
         start=start, newton_solver=None if a.direct else factory, loose=None if a.direct else a.loose, cpu=cpu,
         armijo=a.armijo)
     out["alm_cpu"] = time.process_time() - c0
     out.update({f"cpu_{q}": v for q, v in cpu.items()})
     its = solver["s"].its if "s" in solver else []
-    upd = [r for r in recs]
+    upd = list(recs)
     out.update(settled=settled, newton=upd[-1]["newton"] if upd else 0, updates=len(upd),
                faces=sum(len(r.get("finish", [])) for r in upd), cg_its=int(sum(its)),
                inner=[r["inner"] for r in upd], levels=solver["s"].levels if "s" in solver else None)

@@ -138,7 +138,8 @@ def alm(A, F, G, g, steps: int, log=print, beta: float = BETA, tau: float = TAU,
     ``loose``: the steps' tolerance while the active set changes (tightened to ``loose**3`` on a step whose set
     repeats the last one's; None: every step exact, a direct solver's); ``cpu``: a dict the CPU seconds of the
     parts are added to (also logged); ``armijo``: a Newton step is taken whole where it decreases phi by 1e-4 of
-    its slope's prediction (Armijo), the exact line search only where it does not. Returns (x, z, Newton steps + face solves, certified, records)."""
+    its slope's prediction (Armijo), the exact line search only where it does not. Returns (x, z, Newton steps +
+    face solves, certified, records)."""
     m = G.shape[0]
     cols = np.flatnonzero(np.diff(G.tocsc().indptr))
     R = G.tocsc()[:, cols].tocsr()

@@ -62,7 +62,8 @@ from cvxcontact.backends.signorini import cheap_start
 
 def body_modes(problem) -> np.ndarray:
     """Each body's six rigid-body modes on its free u dofs, about its own centre, stacked (the AMG route's)."""
-    return np.vstack([rigid_modes(problem.meshes[k].points, problem.systems[k].Tu) for k in range(len(problem.blocks))])
+    return np.vstack([rigid_modes(problem.meshes[k].points, problem.systems[k].Tu)
+                      for k in range(len(problem.blocks))])
 
 
 class AMGNewton:

@@ -194,12 +194,17 @@ def run(n: int, a) -> dict:
         solver["s"] = AMGNewton(A_, G_, rho, modes, penalised=a.hierarchy == "penalised")
         return solver["s"]
 
+    ref = None
+    if a.diagnose:         # each update's band against the condensed route's face (its answer), as explore_gamma3_alm
+        closed = np.zeros(G.shape[0], bool)
+        closed[P] = True
+        ref = (Mixed(A, G).solve(closed, F, g)[0], np.zeros(G.shape[0]))
     cpu = {}
     c0 = time.process_time()
     x, _z, _k, settled, recs = alm_mod.alm(
         A, F, G, g, a.steps, log=lambda r: print("   ", r, flush=True), beta=a.beta, tau=a.tau, retries=a.retries,
         start=start, newton_solver=None if a.direct else factory, loose=None if a.direct else a.loose, cpu=cpu,
-        armijo=a.armijo)
+        armijo=a.armijo, ref=ref)
     out["alm_cpu"] = time.process_time() - c0
     out.update({f"cpu_{q}": v for q, v in cpu.items()})
     its = solver["s"].its if "s" in solver else []
@@ -243,6 +248,7 @@ def main() -> None:
     ap.add_argument("--cold", action="store_true", help="start from x = 0, y = 0 (not the sigma1 answer)")
     ap.add_argument("--direct", action="store_true", help="Newton steps by PARDISO (explore_gamma3_alm's)")
     ap.add_argument("--armijo", action="store_true", help="full Newton steps where Armijo holds (else exact)")
+    ap.add_argument("--diagnose", action="store_true", help="each update's band against the condensed answer")
     ap.add_argument("--no-condensed", dest="condensed", action="store_false")
     a = ap.parse_args()
     for n in a.n:

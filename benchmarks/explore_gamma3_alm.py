@@ -91,7 +91,8 @@ class Hessian:
         H.sort_indices()
         return H
 
-    def solve(self, active, rhs):
+    def solve(self, active, rhs, rtol=None):
+        """The step for the rows ``active``; ``rtol`` (a Krylov solve's tolerance) is ignored: a direct solve."""
         H = self.matrix(active)
         if self.ps is None:
             self.ps = PardisoSymmetric(H)
@@ -129,21 +130,33 @@ def line_search(a, b, q, c, rho, t=1.0):
 
 
 def alm(A, F, G, g, steps: int, log=print, beta: float = BETA, tau: float = TAU, eta: float = 0.1,
-        grow: float = 10.0, retries: int = 3, always: bool = False, ref=None):
+        grow: float = 10.0, retries: int = 3, always: bool = False, ref=None, start=None, newton_solver=None,
+        loose: float | None = None, cpu=None, armijo: bool = False):
     """The augmented Lagrangian with semismooth Newton subproblems and the exact finish (module docstring).
-    Returns (x, z, Newton steps + face solves, certified, records)."""
+    ``start``: (x, y) to start from (default x = 0, y = 0); ``newton_solver(A, G, rho)``: the Newton steps'
+    solver, with ``.solve(active, rhs, rtol)`` and a writable ``.rho`` (default :class:`Hessian`, PARDISO);
+    ``loose``: the steps' tolerance while the active set changes (tightened to ``loose**3`` on a step whose set
+    repeats the last one's; None: every step exact, a direct solver's); ``cpu``: a dict the CPU seconds of the
+    parts are added to (also logged); ``armijo``: a Newton step is taken whole where it decreases phi by 1e-4 of
+    its slope's prediction (Armijo), the exact line search only where it does not. Returns (x, z, Newton steps +
+    face solves, certified, records)."""
     m = G.shape[0]
     cols = np.flatnonzero(np.diff(G.tocsc().indptr))
     R = G.tocsc()[:, cols].tocsr()
     gn2 = np.asarray(G.multiply(G).sum(axis=1)).ravel()
     rho = beta * np.median(A.diagonal()[cols]) / np.median(gn2[gn2 > 0])
-    hess = Hessian(A, G, rho)
+    c0 = time.process_time()
+    hess = (newton_solver or Hessian)(A, G, rho)
+    cpu = {} if cpu is None else cpu
+    for k in ("setup", "newton", "qr", "face", "nnls"):
+        cpu.setdefault(k, 0.0)
+    cpu["setup"] += time.process_time() - c0
     mixed = Mixed(A, G)
     colnorm = np.sqrt(gn2)
-    x, y = np.zeros(A.shape[0]), np.zeros(m)
+    x, y = (np.zeros(A.shape[0]), np.zeros(m)) if start is None else (np.array(start[0]), np.array(start[1]))
     records, tried = [], set()
     newton = updates = faces = 0
-    cpu = {"newton": 0.0, "qr": 0.0, "face": 0.0, "nnls": 0.0}
+    last_act = None
     z = np.zeros(m)
     last_change = np.inf
     while newton < steps:
@@ -155,12 +168,22 @@ def alm(A, F, G, g, steps: int, log=print, beta: float = BETA, tau: float = TAU,
             act = y + rho * s >= 0       # the kinks (lam = 0 exactly, e.g. x = 0 where g = 0) taken as active
             grad = A @ x - F + G.T @ lam
             c0 = time.process_time()
-            dx = hess.solve(act, -grad)
+            rtol = None if loose is None else (loose ** 3 if np.array_equal(act, last_act) else loose)
+            last_act = act
+            dx = hess.solve(act, -grad, rtol)
             cpu["newton"] += time.process_time() - c0
             newton += 1
             inner += 1
             Adx = A @ dx
-            t = line_search(dx @ Adx, dx @ (A @ x - F), G @ dx, y + rho * s, rho)
+            a_, b_, q_, c_ = dx @ Adx, dx @ (A @ x - F), G @ dx, y + rho * s
+            t = None
+            if armijo:           # the full step where it decreases phi enough (it may cross many kinks)
+                gain = 0.5 * a_ + b_ + (np.sum(np.maximum(0.0, c_ + rho * q_) ** 2)
+                                        - np.sum(np.maximum(0.0, c_) ** 2)) / (2 * rho)
+                if gain <= 1e-4 * (b_ + q_ @ np.maximum(0.0, c_)):
+                    t = 1.0
+            if t is None:
+                t = line_search(a_, b_, q_, c_, rho)
             x = x + t * dx
             s = G @ x - g
             same = np.array_equal(act, y + rho * s >= 0)

@@ -27,10 +27,9 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from harness import thin_layer_route  # noqa: E402
+from harness import thin_layer_route
 
-import cvxcontact.backends  # noqa: E402
-from cvxcontact.backends import sparse as after  # noqa: E402
+from cvxcontact.backends import sparse as after
 
 warnings.simplefilter("ignore")
 n, reps, rev = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]

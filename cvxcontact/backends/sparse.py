@@ -69,6 +69,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .condensed import quasi_definite
+from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
@@ -104,10 +105,6 @@ two_blocks(64) the same fill (4.7) and flops, two_blocks(300) 4,981 against 6,49
 order; a bulky (3D) one is not. Where minimum degree is tried and not kept, its analysis is lost (about one nested
 dissection analysis in 3D: 0.50 s on the boxes at n = 24)."""
 
-COARSE_HOPS = 4
-"""The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
-neighbours); the start closes every row within as many hops of a closed coarse row."""
-
 CAP_MIN, CAP_MAX = 16, 500
 """The bounds of the default ``cap`` of :class:`SparseContact` (:meth:`SparseContact._over_cap`): changes of at
 most CAP_MIN rows are always solved by the capacitance form, changes of more than CAP_MAX rows always refactorised."""
@@ -117,10 +114,6 @@ BLOCK_GAIN = 3.0
 solve: the default cap's first guess, before a block has been timed (:meth:`SparseContact._over_cap`). Measured,
 one thread: thin_layer(3000) 0.0045 s against 0.016 s (3.5x) with PARDISO; two elastic boxes of 1.1e4 and 2.0e4
 unknowns 2.5-6x."""
-
-NEAR_DEPENDENT = 1e-2
-"""Two rows whose Jacobi-scaled cosine exceeds 1 - this are nearly dependent (merged nodes of two traces close
-together): the start closes at most one of them (the more compliant)."""
 
 SOFT = 1e-6
 """The relative compliance of the regularised stage of the sparse route for dependent rows
@@ -616,14 +609,14 @@ class SparseContact:
     def coarse_start(self, F, g, free=None):
         """A start set for :meth:`solve`'s steps on a long interface, from the answer of a coarse subproblem.
 
-        The coarse rows: a maximal independent set of the free rows' graph to :data:`COARSE_HOPS` hops (no two
+        The coarse rows: a maximal independent set of the free rows' graph to :data:`~.coarse.COARSE_HOPS` hops (no two
         within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
         alone (every other row left out) is solved on its dense Schur complement, the coarse rows' compliance
         W_c = G_c S^{-1} G_c^T (c x c, one partial factorisation of [[S, G_c^T], [G_c, 0]] with the coarse rows as
         its Schur block, :func:`~cvxcontact.backends.factor.factorize`, freed at once), as the LCP y >= 0,
         s = q - W_c y <= 0, y^T s = 0 with q = G_c S^{-1} F - g_c (:func:`~cvxcontact.backends.finish.solve_lcp`).
-        The start: every free row within :data:`COARSE_HOPS` hops of a closed coarse row, less the stiffer row of
-        each nearly dependent pair (:data:`NEAR_DEPENDENT`). Only a start: the answer is the steps' (checked as
+        The start: every free row within as many hops of a closed coarse row, less the stiffer row of
+        each nearly dependent pair (:func:`~.coarse.spread`). Only a start: the answer is the steps' (checked as
         always). Why: from the bonded start a slender layer's contact zone moves by hundreds of rows a step, each
         step a numeric factorisation (15 on thin_layer(3000)); from this start 4. Returns None where there is no
         coarse problem to solve (every free row coarse, none free) or it cannot be solved (a perturbed pivot, a
@@ -646,21 +639,7 @@ class SparseContact:
         if out is None:
             return None
         C, idx, y = out
-        start = np.zeros(self.m)
-        start[idx[y > 0]] = 1.0
-        for _ in range(COARSE_HOPS):                    # the rows within COARSE_HOPS hops of a closed coarse row
-            start = (C @ start > 0).astype(float)
-        start = free & (start > 0)
-        Gs = self.G @ sp.diags(1.0 / np.sqrt(np.abs(self.A.diagonal())))
-        P = (Gs @ Gs.T).tocoo()
-        norm = np.sqrt(np.maximum(np.asarray(Gs.multiply(Gs).sum(axis=1)).ravel(), np.finfo(float).tiny))
-        cos = P.data / (norm[P.row] * norm[P.col])
-        near = np.flatnonzero((P.row < P.col) & (cos > 1.0 - NEAR_DEPENDENT))
-        near = near[np.argsort(-cos[near], kind="stable")]          # the most nearly dependent pairs first
-        for a, b in zip(P.row[near], P.col[near]):
-            if start[a] and start[b]:
-                start[a if self.w[a] < self.w[b] else b] = False
-        return start if start.any() else None
+        return spread(C, idx[y > 0], free, self.G, self.A.diagonal(), self.w)
 
     def _coarse(self, F, g, free):
         """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
@@ -668,19 +647,8 @@ class SparseContact:
         there."""
         from .factor import factorize as factorize_schur
 
-        B = abs(self.G).tocsr()
-        B.data[:] = 1.0
-        C = (B @ B.T).tocsr()
-        C.data[:] = 1.0
-        keep, blocked = np.zeros(self.m, dtype=bool), ~free
-        for a in range(self.m):        # greedy maximal independent set, in row order; each ball by its own search
-            if not blocked[a]:         # (no power of the graph is formed: to 4 hops it holds ~100-300 rows per row)
-                keep[a] = True
-                ball = np.array([a])
-                for _ in range(COARSE_HOPS):
-                    ball = np.unique(np.concatenate([C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
-                blocked[ball] = True
-        idx = np.flatnonzero(keep)
+        C = row_graph(self.G)
+        idx = coarse_rows(C, free)
         if len(idx) == 0 or len(idx) == int(free.sum()):
             return None
         Gc = self.G[idx]

@@ -73,7 +73,6 @@ from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread 
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from ..discrete.energy import abs_product
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
@@ -179,7 +178,9 @@ class SparseContact:
                               "dof twice); use method='condensed' or 'full'")
         idx = order.data.astype(np.int64) - 1
         self._indices, self._indptr = order.indices, order.indptr
+        self._indices.flags.writeable = self._indptr.flags.writeable = False      # shared by every K(A) (matrix)
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
+        self._abs = np.abs(self._vals)
         self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)
         self.F = np.concatenate([F for _, F in parts])
         self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
@@ -198,15 +199,22 @@ class SparseContact:
         self._t_fact = None               # seconds of a numeric factorisation (the default cap, :meth:`_over_cap`)
         self._t_solve = None              # seconds of the first single solve on a base (the same)
 
-    def matrix(self, active) -> sp.csc_matrix:
-        """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
+    def matrix(self, active, absolute: bool = False) -> sp.csc_matrix:
+        """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m); ``absolute``: |K(A)|
+        (entrywise). Its index arrays are the pattern's own (read-only: every K(A) shares them), and it is built
+        without the constructor's format check (canonical by construction: sorted, no duplicates)."""
         active = np.asarray(active, dtype=bool)
-        data = self._vals.copy()
+        vals = self._abs if absolute else self._vals
+        data = vals.copy()
         c, d = self._couple, self._diag
-        data[c] = np.where(active[self._rid[c]], self._vals[c], 0.0)
-        data[d] = np.where(active[self._rid[d]], -self.soft[self._rid[d]], -1.0)
+        data[c] = np.where(active[self._rid[c]], vals[c], 0.0)
+        soft = np.abs(self.soft) if absolute else -self.soft
+        data[d] = np.where(active[self._rid[d]], soft[self._rid[d]], 1.0 if absolute else -1.0)
         N = self.n + self.m
-        return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=(N, N))
+        K = sp.csc_matrix((N, N), dtype=float)
+        K.data, K.indices, K.indptr = data, self._indices, self._indptr
+        K.has_canonical_format = True
+        return K
 
     def _refactor(self, active, K=None, own_analysis: bool = False):
         """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
@@ -417,7 +425,7 @@ class SparseContact:
     def _system(self, active):
         """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
         check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
-        K = self.matrix(active)
+        K, absK = self.matrix(active), None
         for attempt in range(3):
             if attempt == 2:
                 self.forget(analysis=True)
@@ -431,8 +439,9 @@ class SparseContact:
                 continue
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
-                # componentwise backward error (each row's own terms; |K| |z| without a copy of K)
-                scale = abs_product(K, z) + np.abs(b)
+                # componentwise backward error (each row's own terms; |K(A)| from the pattern's |values|)
+                absK = self.matrix(active, absolute=True) if absK is None else absK
+                scale = absK @ np.abs(z) + np.abs(b)
                 # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
                 scale[self.n:] += self.w * np.abs(z[self.n:])

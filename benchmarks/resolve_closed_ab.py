@@ -75,7 +75,8 @@ def main():
         p, q = np.concatenate([np.ravel(v) for v in p]), np.concatenate([np.ravel(v) for v in q])
         return float(np.abs(p - q).max() / np.abs(q).max())
 
-    print(f"answers after vs before: u {rel(a.u, b.u):.1e}, phi {rel([p for p in a.phi if p is not None], [p for p in b.phi if p is not None]):.1e}, "
+    phi = [[p for p in s.phi if p is not None] for s in (a, b)]
+    print(f"answers after vs before: u {rel(a.u, b.u):.1e}, phi {rel(*phi):.1e}, "
           f"force {rel([c.force for c in a.contacts], [c.force for c in b.contacts]):.1e}; ok {a.ok} {b.ok}")
     for side, sol in (("before", b), ("after", a)):
         print(side, "residuals", {k: f"{v:.1e}" for k, v in sol.residuals().items()})

@@ -469,7 +469,7 @@ def test_coarse_forces_solve_the_lcp_of_an_independently_built_coarse_compliance
     each row to its own scale S_a = |q_a| + (|W_c| |y|)_a (thin_layer(200), both factorisations)."""
     import scipy.sparse.linalg as spla
 
-    import cvxcontact.backends.coarse as coarse_mod
+    import cvxcontact.backends.sparse as sparse_mod
     from cvxcontact.backends.factor import pardiso_available
 
     if factorization == "pardiso" and not pardiso_available():
@@ -480,14 +480,14 @@ def test_coarse_forces_solve_the_lcp_of_an_independently_built_coarse_compliance
     F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
     sc = SparseContact(blocks, E, factorization=factorization)
     seen = {}
-    solve_lcp = coarse_mod.solve_lcp
+    solve_lcp = sparse_mod.solve_lcp
 
     def spy(W, q, active):
         seen["W"], seen["q"] = W.copy(), q.copy()
         return solve_lcp(W, q, active)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(coarse_mod, "solve_lcp", spy)
+        mp.setattr(sparse_mod, "solve_lcp", spy)
         _, idx, y = sc._coarse(F, g, ~p.held_rows)
     Gc = sc.G[idx].toarray()
     lu = spla.splu(sc.A.tocsc())

@@ -103,21 +103,28 @@ class Condensation:
         onto a substrate, thin_layer(40): |d_a| about 9e3 times the row's displacement scale U_a), so
         :meth:`invert` meets those rows only to about 1e-11 U_a (the complementarity check, the square root of
         slack times force, then reads 2e-6). Here the closed rows' slack s_A = E_A [u_nu] - g_A is read from the
-        back-substituted fields, the force that closes it, W_AA dy_A = s_A
+        fields' Gamma values, the force that closes it, W_AA dy_A = s_A
         (:func:`~cvxcontact.backends.finish.lcp.closed_solve`: the finish's own factor where kept), is added to
-        y, and the fields move by the small correction -S^{-1} J^T E^T dy (one solve per body), never recomputed
-        from the large terms: s_A then reads 1e-16 U_a (measured, thin_layer(40)). The momentum and Gauss rows
-        are met to rounding by the back-substitution already (equilibrium 8e-17): their residual is not
-        refined."""
+        y, and the Gamma values move by the small correction -Sigma^{-1} J^T E^T dy, never recomputed from the
+        large terms: s_A then reads 1e-16 U_a (measured, thin_layer(40)). The momentum and Gauss rows are met to
+        rounding by the back-substitution (equilibrium 8e-17): their residual is not refined.
+
+        One backward sweep per body: the Gamma values v = Sigma^{-1} (r - J^T E^T y) of the fields are all the
+        slack reads (the sweep sets x_G = v), and the correction's right-hand side J^T E^T dy lies on the Gamma
+        dofs, whose forward sweep is its own reduced load (b_I = 0: r = b_G), so S^{-1} of it is the backward
+        sweep of zero interior with Gamma values Sigma^{-1} J^T E^T dy; the sweeps being linear, the fields are
+        the backward sweep of the load's forward sweep with v less that correction (before: the fields' sweep, then
+        a forward and a backward sweep of the correction per body; the same fields to rounding)."""
         E, g = problem.E, problem.g
         t0 = time.perf_counter()
-        x = [c.back_substitute(f, E.T @ y) for c, f in zip(self.bodies, self.sweeps)]
+        v = [c.factor.schur_solve(f.reduced - c.jump.T @ (E.T @ y)) for c, f in zip(self.bodies, self.sweeps)]
         active = np.asarray(active, dtype=bool)
         if self.compliance is not None and active.any():
-            slack = sum(R @ xk[c.gamma] for R, xk, c in zip(self.compliance.rows, x, self.bodies)) - g
+            slack = sum(R @ vk for R, vk in zip(self.compliance.rows, v)) - g
             dy = closed_solve(self.compliance.W, slack, active, self.compliance.last_factor)
             y = y + dy
-            x = [xk - c.solve(c.lift(E.T @ dy)) for xk, c in zip(x, self.bodies)]
+            v = [vk - c.factor.schur_solve(c.jump.T @ (E.T @ dy)) for vk, c in zip(v, self.bodies)]
+        x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
         return (*split(self.bodies, x, problem.blocks), y)
 

@@ -39,7 +39,10 @@ again (its scaling and matching are taken from the first matrix analysed, which 
 thin_layer(1000) from the coarse start, 124 perturbed pivots and a failed check on its second set; analysed
 afresh, the steps go on to the answer). Steps that stop (a cycle, a system failing its check) on the
 state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
-the path of a new object (:meth:`SparseContact._attempts`).
+the path of a new object (:meth:`SparseContact._attempts`). The answer is taken from a factor of K(A) for the final set A itself
+(under the timed cap: which base the steps end on follows the clock); where the steps on the columns (below) end
+on a set whose signs hold, that set is factorised as its own system at once (:meth:`SparseContact._last`), not
+solved through the base first.
 
 Near the answer the steps flip a few rows at a time (on a long interface between non-matching meshes, rows whose
 force and gap are both tiny beside their scales: thin_layer(3000) took 7 steps of 1-19 rows after its last
@@ -69,12 +72,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .condensed import quasi_definite
+from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
 from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
-from ..discrete.energy import abs_product
-from .coarse import CoarseStart
-from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold
+from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
 
@@ -136,7 +138,7 @@ def row_weights(blocks, E) -> np.ndarray:
     return np.maximum(w, 1e-14 * max(float(w.max(initial=0.0)), np.finfo(float).tiny))
 
 
-class SparseContact(CoarseStart):
+class SparseContact:
     """The sparse mixed system of scaled blocks (:class:`~cvxcontact.discrete.Block`) with contact rows
     ``E``, for every active set (module docstring). Built once per geometry; :meth:`solve` per load case.
 
@@ -179,13 +181,16 @@ class SparseContact(CoarseStart):
                               "dof twice); use method='condensed' or 'full'")
         idx = order.data.astype(np.int64) - 1
         self._indices, self._indptr = order.indices, order.indptr
+        self._indices.flags.writeable = self._indptr.flags.writeable = False      # shared by every K(A) (matrix)
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
+        self._abs = np.abs(self._vals)
         self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)
         self.F = np.concatenate([F for _, F in parts])
         self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
         self.cap = cap
         self._timed = cap is None         # the default cap, timed (:meth:`_over_cap`; the answer: :meth:`solve`)
+        self._predicted = None            # the set the steps on the columns end on, signs holding (:meth:`_last`)
         self.base = None                  # (active set, factor) of the current base
         self._columns = {}                # row -> (G zx, zy) of its capacitance column on the base
         self._base_state = None           # (G x, y) of the base set's own solution, for the loads F, g
@@ -197,15 +202,22 @@ class SparseContact(CoarseStart):
         self._t_fact = None               # seconds of a numeric factorisation (the default cap, :meth:`_over_cap`)
         self._t_solve = None              # seconds of the first single solve on a base (the same)
 
-    def matrix(self, active) -> sp.csc_matrix:
-        """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m)."""
+    def matrix(self, active, absolute: bool = False) -> sp.csc_matrix:
+        """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m); ``absolute``: |K(A)|
+        (entrywise). Its index arrays are the pattern's own (read-only: every K(A) shares them), and it is built
+        without the constructor's format check (canonical by construction: sorted, no duplicates)."""
         active = np.asarray(active, dtype=bool)
-        data = self._vals.copy()
+        vals = self._abs if absolute else self._vals
+        data = vals.copy()
         c, d = self._couple, self._diag
-        data[c] = np.where(active[self._rid[c]], self._vals[c], 0.0)
-        data[d] = np.where(active[self._rid[d]], -self.soft[self._rid[d]], -1.0)
+        data[c] = np.where(active[self._rid[c]], vals[c], 0.0)
+        soft = np.abs(self.soft) if absolute else -self.soft
+        data[d] = np.where(active[self._rid[d]], soft[self._rid[d]], 1.0 if absolute else -1.0)
         N = self.n + self.m
-        return sp.csc_matrix((data, self._indices.copy(), self._indptr.copy()), shape=(N, N))
+        K = sp.csc_matrix((N, N), dtype=float)
+        K.data, K.indices, K.indptr = data, self._indices, self._indptr
+        K.has_canonical_format = True
+        return K
 
     def _refactor(self, active, K=None, own_analysis: bool = False):
         """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
@@ -396,19 +408,32 @@ class SparseContact(CoarseStart):
             y[add] = ts[len(drop):]
             s = Gx0 + GZ @ ts - self._g
             if signs_hold(y, s, active, self.w, S):
+                self._predicted = active.tobytes()      # the columns say: the answer (:meth:`_system`)
                 return active
             active = y * self.w + s > 0
         return active
 
+    def _last(self, active) -> bool:
+        """Whether :meth:`_system` factorises K(``active``) for itself rather than solving it through the base: the
+        set on which the steps on the capacitance columns (:meth:`_settle`) found every sign to hold, under the
+        timed cap (whose answer :meth:`solve` takes from a factor of K(A) for the final set A anyway). Factorised as
+        the step's own system, that factor is the final one where the exact check confirms the columns; the
+        capacitance solve of the set (with its refinement) is not made (0.06 s on thin_layer(3000); where the
+        check does not confirm them, the new base is nearer the answer). Once per prediction."""
+        if not self._timed or self._predicted != active.tobytes() or np.array_equal(self.base[0], active):
+            return False
+        self._predicted = None
+        return True
+
     def _system(self, active):
         """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
         check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
-        K = self.matrix(active)
+        K, absK = self.matrix(active), None
         for attempt in range(3):
             if attempt == 2:
                 self.forget(analysis=True)
-            if self.base is None or attempt >= 1 or self._over_cap(np.flatnonzero(self.base[0] & ~active),
-                                                                   np.flatnonzero(active & ~self.base[0])):
+            if self.base is None or attempt >= 1 or self._last(active) \
+                    or self._over_cap(np.flatnonzero(self.base[0] & ~active), np.flatnonzero(active & ~self.base[0])):
                 if not self._refactor(active, K, own_analysis=attempt == 2):
                     return None
             b = np.concatenate([self.F, np.where(active, self._g, 0.0)])
@@ -417,8 +442,9 @@ class SparseContact(CoarseStart):
                 continue
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
-                # componentwise backward error (each row's own terms; |K| |z| without a copy of K)
-                scale = abs_product(K, z) + np.abs(b)
+                # componentwise backward error (each row's own terms; |K(A)| from the pattern's |values|)
+                absK = self.matrix(active, absolute=True) if absK is None else absK
+                scale = absK @ np.abs(z) + np.abs(b)
                 # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
                 scale[self.n:] += self.w * np.abs(z[self.n:])
@@ -444,7 +470,7 @@ class SparseContact(CoarseStart):
         number of attempts this solve made."""
         self.F = np.asarray(F, dtype=float)
         self._g = np.asarray(g, dtype=float)
-        self._base_state = None
+        self._base_state, self._predicted = None, None
         n, m = self.n, self.m
         active = np.ones(m, dtype=bool) if active is None else np.asarray(active, dtype=bool).copy()
         visited = set()                                 # the sets solved exactly (the steps' cycle test)
@@ -591,6 +617,74 @@ class SparseContact(CoarseStart):
             return out
         (x, y), passive, steps = out
         return self._split(x) + (y, passive, steps)
+
+    def coarse_start(self, F, g, free=None):
+        """A start set for :meth:`solve`'s steps on a long interface, from the answer of a coarse subproblem.
+
+        The coarse rows: a maximal independent set of the free rows' graph to :data:`~.coarse.COARSE_HOPS` hops (no two
+        within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
+        alone (every other row left out) is solved on its dense Schur complement, the coarse rows' compliance
+        W_c = G_c S^{-1} G_c^T (c x c, one partial factorisation of [[S, G_c^T], [G_c, 0]] with the coarse rows as
+        its Schur block, :func:`~cvxcontact.backends.factor.factorize`, freed at once), as the LCP y >= 0,
+        s = q - W_c y <= 0, y^T s = 0 with q = G_c S^{-1} F - g_c (:func:`~cvxcontact.backends.finish.solve_lcp`).
+        The start: every free row within as many hops of a closed coarse row, less the stiffer row of
+        each nearly dependent pair (:func:`~.coarse.spread`). Only a start: the answer is the steps' (checked as
+        always). Why: from the bonded start a slender layer's contact zone moves by hundreds of rows a step, each
+        step a numeric factorisation (15 on thin_layer(3000)); from this start 4. Returns None where there is no
+        coarse problem to solve (every free row coarse, none free) or it cannot be solved (a perturbed pivot, a
+        singular W_c, the LCP declined): the caller then starts from the bonded system. From this call on, a new
+        PARDISO analysis of this object is made on the bonded values (:meth:`_refactor`).
+
+        Parameters
+        ----------
+        F : (n,) ndarray, the loads [f_1; -q_1; ...] (scaled)
+        g : (m,) ndarray, the rows' gaps (scaled)
+        free : (m,) bool ndarray, optional, the rows that may close (default every row)
+
+        Returns
+        -------
+        (m,) bool ndarray, the rows to close first, or None (above)
+        """
+        free = np.ones(self.m, dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        self._bonded_analysis = True          # the steps from the start: PARDISO analysed on the bonded values
+        out = self._coarse(F, g, free)
+        if out is None:
+            return None
+        C, idx, y = out
+        return spread(C, idx[y > 0], free, self.G, self.A.diagonal(), self.w)
+
+    def _coarse(self, F, g, free):
+        """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
+        neighbour), the coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as
+        there."""
+        from .factor import factorize as factorize_schur
+
+        C = row_graph(self.G)
+        idx = coarse_rows(C, free)
+        if len(idx) == 0 or len(idx) == int(free.sum()):
+            return None
+        Gc = self.G[idx]
+        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr")
+        gamma = self.n + np.arange(len(idx))
+        order = None
+        if self.factorization != "pardiso":             # SuperLU: the route's ordering of S's dofs, the rows last
+            if self.perm is None:
+                self.perm = ordering(self.matrix(np.ones(self.m, dtype=bool)), self.n + np.arange(self.m))
+            order = np.concatenate([self.perm[self.perm < self.n], gamma])
+        try:
+            fac = factorize_schur(M, gamma, self.factorization, order=order)
+        except (SolverError, RuntimeError):
+            return None
+        try:
+            q = -fac.forward(np.concatenate([np.asarray(F, dtype=float), np.zeros(len(idx))])).reduced \
+                - np.asarray(g, dtype=float)[idx]                        # G_c S^{-1} F - g_c
+            W = -fac.schur                                               # the Schur block of M is -W_c
+        finally:
+            fac.free()
+        out = solve_lcp(W, q, np.ones(len(idx), dtype=bool))
+        if isinstance(out, Declined):
+            return None
+        return C, idx, np.where(out[1], out[0], 0.0)
 
     def _split(self, x):
         u, phi, pos = [], [], 0

@@ -1,0 +1,114 @@
+"""The sparse route's last step and its pieces (cvxcontact/backends/sparse.py, backends/coarse.py): the set the
+steps on the capacitance columns predict as the answer factorised for itself (SparseContact._last), K(A) and |K(A)|
+on the pattern's own arrays, the coarse rows' independent set from the pattern of C^4."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import cvxcontact as cc
+import cvxcontact.backends.sparse as sparse_mod
+from cvxcontact.apps.demo import thin_layer
+from cvxcontact.backends import factor as factor_module
+from cvxcontact.backends.coarse import COARSE_HOPS, coarse_rows, row_graph
+from cvxcontact.backends.condensed import quasi_definite_rhs
+from cvxcontact.backends.sparse import SparseContact
+
+pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
+
+
+@pytest.fixture(scope="module")
+def layer200():
+    """thin_layer(200)'s scaled blocks, rows, loads and gaps (348 merged nodes, a saw-tooth of open rows)."""
+    problem = cc.ContactSolver(thin_layer(200), method="sparse").problem
+    blocks, E, g = list(problem.blocks), problem.E, np.asarray(problem.g, dtype=float)
+    return blocks, E, np.concatenate([quasi_definite_rhs(b) for b in blocks]), g
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_the_set_the_columns_predict_is_factorised_for_itself_and_gives_the_same_bits(monkeypatch, layer200,
+                                                                                      factorization):
+    """Under the timed cap the answer comes from a factor of K(A) for the final set A. Where the steps on the
+    capacitance columns (SparseContact._settle) end on a set whose signs hold, that set is factorised as its own
+    system (SparseContact._last) instead of being solved through the base by the capacitance form and then
+    factorised again for the answer. Against the route with _last off, on one fake clock (the same caps, hence
+    the same path): the prediction is taken, the same active set and the same bits of u, phi and y (the same
+    factorisation of the same K(A), then the same solve and refinement), as many factorisations, and fewer systems
+    solved through the base (measured on thin_layer(200): the capacitance solve of the final set and its
+    refinement, 2 of 11 with SuperLU and PARDISO)."""
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    blocks, E, F, g = layer200
+    last, solve_on = SparseContact._last, SparseContact._solve_on
+    runs = {}
+    for mode in ("predicted", "off"):
+        def clock(now=[0.0]):              # noqa: B006 (the clock's own time, one list per clock)
+            now[0] += 1e-6                 # a factorisation takes as long as a solve: the cap at CAP_MIN
+            return now[0]
+
+        monkeypatch.setattr(sparse_mod, "time", SimpleNamespace(perf_counter=clock))
+        taken, solves = [], []
+
+        def spy_last(self, active, taken=taken, mode=mode):
+            out = last(self, active) if mode == "predicted" else False
+            taken.append(out)
+            return out
+
+        def spy_solve_on(self, active, b, solves=solves):
+            solves.append(active.sum())
+            return solve_on(self, active, b)
+
+        monkeypatch.setattr(SparseContact, "_last", spy_last)
+        monkeypatch.setattr(SparseContact, "_solve_on", spy_solve_on)
+        sc = SparseContact(blocks, E, factorization=factorization)
+        runs[mode] = (sc.solve(F, g), sc.factorizations, len(solves), sum(taken))
+    (new, f_new, s_new, taken_new), (old, f_old, s_old, _) = runs["predicted"], runs["off"]
+    assert taken_new == 1                                  # the prediction was taken (once)
+    assert np.array_equal(new[3], old[3]) and new[3].any() and not new[3].all()
+    assert np.array_equal(new[2], old[2])
+    assert all(np.array_equal(p, q) for p, q in zip(new[0] + new[1], old[0] + old[1]) if p is not None)
+    assert f_new == f_old and s_new < s_old
+
+
+def test_k_and_its_absolute_values_on_the_patterns_own_arrays(layer200):
+    """SparseContact.matrix: K(A) built on the pattern's index arrays (shared, read-only) is the matrix of the
+    mixed system (26) assembled independently, [[S, G^T P], [P G, -(I - P)]] with P the active rows; |K(A)|
+    (absolute=True) is its entrywise absolute value; neither shares its values with another K(A)."""
+    blocks, E, _, _ = layer200
+    sc = SparseContact(blocks, E)
+    rng = np.random.default_rng(3)
+    active = rng.random(sc.m) < 0.6
+    K, absK = sc.matrix(active), sc.matrix(active, absolute=True)
+    P = sp.diags(active.astype(float))
+    ref = sp.bmat([[sc.A, sc.G.T @ P], [P @ sc.G, -sp.diags((~active).astype(float))]], format="csc")
+    assert abs(K - ref).max() == 0.0 and abs(absK - abs(ref)).max() == 0.0
+    assert K.indices is absK.indices and not K.indices.flags.writeable and not K.indptr.flags.writeable
+    other = sc.matrix(~active)
+    assert other.data is not K.data and abs(K - ref).max() == 0.0     # building another K(A) left K as it was
+
+
+def test_coarse_rows_are_the_greedy_independent_set_of_the_balls_of_four_hops(layer200):
+    """backends/coarse.coarse_rows reads the balls of COARSE_HOPS hops from the pattern of C^4; the same rows as
+    the greedy maximal independent set in row order with every ball found by its own breadth-first search on the
+    rows' graph (rows sharing a dof), some rows not free (never coarse, but still in the graph)."""
+    blocks, E, _, _ = layer200
+    sc = SparseContact(blocks, E)
+    C = row_graph(sc.G)
+    free = np.ones(sc.m, dtype=bool)
+    free[::7] = False
+    B = (abs(sc.G) @ abs(sc.G).T).tocsr()                 # rows sharing a dof (an independent product)
+    neighbours = [B.indices[B.indptr[a]:B.indptr[a + 1]] for a in range(sc.m)]
+    keep, blocked = [], ~free
+    for a in range(sc.m):
+        if blocked[a]:
+            continue
+        keep.append(a)
+        ball, frontier = {a}, {a}
+        for _ in range(COARSE_HOPS):
+            frontier = {b for r in frontier for b in neighbours[r]} - ball
+            ball |= frontier
+        blocked[list(ball)] = True
+    idx = coarse_rows(C, free)
+    assert np.array_equal(idx, keep) and 0 < len(idx) < free.sum() and free[idx].all()

@@ -246,6 +246,9 @@ def test_the_block_dragged_over_a_disk_against_a_wall_reads_finished_or_declined
         sol = cc.solve(walled_disk(law), degree=2)
     warned = [str(w.message) for w in record if issubclass(w.category, cc.ResidualWarning)]
     assert sol.polished == (sol.info.declined is None) and bool(warned) == (not sol.polished), warned
+    # the interior point's Coulomb fixed point does not settle here (2.6e-6 at its 50th iterate): its warning, "the
+    # answer is its iterate of smallest change", was raised beside the kept cut rounds' answer, not that iterate
+    assert not [w for w in record if issubclass(w.category, cc.FixedPointWarning)]
     if not sol.polished:
         assert "not finished at the exact tangency points" in sol.info.declined, sol.info.declined
         assert sol.info.kept == "cut rounds' answer" and "the cut rounds' answer is kept" in warned[0]

@@ -408,8 +408,8 @@ def test_estimate_normal_jumps_by_blocks_equal_the_jumps_of_every_facet(monkeypa
         return stacked[f.at0] - stacked[f.at1]
 
     monkeypatch.setattr(contact, "CELLS", 7)
-    assert np.array_equal(est._normal_jumps(fields[2], f, n, contact._voigt_traction),
-                          contact._voigt_traction(whole(fields[2]), n))
+    assert np.array_equal(est._normal_jumps(fields[2], f, n, contact.voigt_traction),
+                          contact.voigt_traction(whole(fields[2]), n))
     assert np.array_equal(est._normal_jumps(fields[3], f, n, lambda J, nb: np.einsum("kvd,kd->kv", J, nb)),
                           np.einsum("kvd,kd->kv", whole(fields[3]), n))
     small, _ = est.estimate(sol)

@@ -49,7 +49,7 @@ def _by_the_element(g, cells, xi, u, phi):
         Hj = H[:, :, j, :]
         deps = np.einsum("msj,mj->ms", strain_matrix(Hj), ue)
         dg = np.einsum("mdk,mk->md", Hj, pe)
-        div += contact._tensor(deps @ c.T + dg @ e)[:, :, j]
+        div += contact.voigt_tensor(deps @ c.T + dg @ e)[:, :, j]
         divD += (deps @ e.T - dg @ kappa.T)[:, j]
     return x, det, inv_T, eps, gphi, sigma, D, div, divD
 

@@ -73,7 +73,7 @@ from .frictiontangency import tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
-from .result import Finish, RawResult, Route
+from .result import INTERIOR_POINT_KEPT, Finish, RawResult, Route
 from .signorini import dependent_rows
 from .tangency import tangency_newton
 
@@ -178,8 +178,8 @@ def conic_full(problem, cache, settings, timings) -> RawResult:
         raw = finish_on_nodes(problem, raw, timings)
     else:
         raw.declined = Declined(Stop.NOT_POSED, UNFINISHED_CONES)
-    if unsettled and not raw.polished:
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+    if unsettled and not raw.polished and raw.kept == INTERIOR_POINT_KEPT:     # not the cuts' answer: its own
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)              # fixed point converged
     return raw
 
 
@@ -279,13 +279,12 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
     """The cuts' Coulomb answer ``trial`` (its capacities' fixed point converged, ``capacity`` those of its
     forces) finished at the tangency points: the same fixed point c^(k+1) = mu r^(k) on
     :func:`_tangency_polish`'s answers, r^(k) their nodal forces, from ``capacity``, with the stop rule of
-    :func:`_coulomb_cuts`; where a polish declines (or ``most`` iterates do not settle), the cuts' answer
-    (labelled declined where a polish declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its
-    capacities its own forces' to the fixed point's tolerance, its slack at the cuts' stop). ``slip_floor``: the
-    first iterate's (:func:`_tangency_polish`), from the interior point's answer ``trial`` where the cuts
-    declined (then None where the fixed point does not settle). The answer's ``fixed_point``: ``before`` (the
-    cuts' fixed point's changes, which end at ``capacity``) then this one's (an answer of the cuts keeps its
-    own)."""
+    :func:`_coulomb_cuts`; where a polish declines or ``most`` iterates do not settle, the cuts' answer (labelled
+    declined, :func:`~cvxcontact.backends.frictiontangency.kept`; its capacities its own forces' to the fixed
+    point's tolerance, its slack at the cuts' stop). ``slip_floor``: the first iterate's (:func:`_tangency_polish`),
+    from the interior point's answer ``trial`` where the cuts declined (then None where the fixed point does not
+    settle). The answer's ``fixed_point``: ``before`` (the cuts' fixed point's changes, which end at ``capacity``)
+    then this one's (an answer of the cuts keeps its own)."""
     changes, cuts = [], None if slip_floor is not None else trial
     for _ in range(most):
         done = _tangency_polish(problem, trial, timings, capacity,
@@ -301,7 +300,8 @@ def _coulomb_tangency(problem, trial, timings, capacity, tol, most, slip_floor=N
                                   and changes[-1] > 0.9 * changes[-2]):
             done.fixed_point = tuple(before) + tuple(changes)
             return done
-    return cuts
+    unsettled = f"Coulomb's fixed point at the tangency points did not settle in {most} iterates ({changes[-1]:.3g})"
+    return None if cuts is None else _kept(problem, cuts, Declined(Stop.MAX_ITER, unsettled))
 
 
 def _cut(problem, trial) -> bool:

@@ -31,6 +31,7 @@ from .friction import (
     normal_cone_forces,
     normal_row_forces,
 )
+from .result import INTERIOR_POINT_KEPT
 
 __all__ = ["beside_user_terms", "cones_beside_user_terms", "tangential_force"]
 
@@ -82,8 +83,8 @@ def _finished(problem, raw, unsettled, objective, settings, admits, finish):
             out = interior
             out.declined = Declined(Stop.NOT_POSED, BINDS)
         raw = out
-    if unsettled and not raw.polished:
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=5)
+    if unsettled and not raw.polished and raw.kept == INTERIOR_POINT_KEPT:     # not the cuts' answer (its own
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=5)              # fixed point converged)
     return raw, tangential_force(problem, raw)
 
 

@@ -97,12 +97,12 @@ def assemble_loads(body, matrices: BodySystem, nodes: P2Nodes) -> BodySystem:
         return _tet_loads(body, matrices, nodes)
     f = _body_load(nodes, body.body_force, 2)
     for tag, load in body.traction.items():
-        f += _edge_load(nodes, nodes.boundary(tag), load, 2)
+        f += edge_load_p2(nodes, nodes.boundary(tag), load, 2)
     q = None
     if matrices.piezoelectric:
         q = _body_load(nodes, body.volume_charge, 1)[:, 0]
         for tag, load in body.surface_charge.items():
-            q -= _edge_load(nodes, nodes.boundary(tag), load, 1)[:, 0]
+            q -= edge_load_p2(nodes, nodes.boundary(tag), load, 1)[:, 0]
     return lifted(body, matrices, f.ravel(), q, nodes)
 
 
@@ -147,7 +147,7 @@ def _body_load(nodes, load, ncomp):
     return out
 
 
-def _edge_load(nodes, edges, load, ncomp):
+def edge_load_p2(nodes, edges, load, ncomp):
     """(n, ncomp) consistent P2 nodal load of a surface density on ``edges`` (start, end, mid)."""
     pts = nodes.points
     a, b = pts[edges[:, 0]], pts[edges[:, 1]]

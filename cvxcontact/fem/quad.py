@@ -286,7 +286,7 @@ class QuadElement(TensorElement):
         held = mesh if nodes is None else nodes
         cells, n = held.cells, len(held.points)
         segment = (lambda tag, load, c: edge_load(mesh, mesh.boundary(tag), load, c)) if self.degree == 1 else \
-            (lambda tag, load, c: p2._edge_load(nodes, nodes.boundary(tag), load, c))
+            (lambda tag, load, c: p2.edge_load_p2(nodes, nodes.boundary(tag), load, c))
 
         def edges(tag, load, c):                                    # (n, c) whatever the segment rule returns
             return np.reshape(segment(tag, load, c), (n, c))

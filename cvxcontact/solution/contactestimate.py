@@ -32,7 +32,7 @@ CELLS = 1 << 15
 _GAUSS3 = (0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)]), np.array([5 / 18, 8 / 18, 5 / 18]))
 
 
-def _voigt_traction(sv, n) -> np.ndarray:
+def voigt_traction(sv, n) -> np.ndarray:
     """(k, v, d): sigma n of Voigt vectors ``sv`` (k, v, s) on the unit normals ``n`` (k, d), component by
     component (t_i += sigma_ij n_j over the Voigt pairs), without forming the tensors."""
     dim = n.shape[1]
@@ -50,7 +50,7 @@ def _voigt_traction(sv, n) -> np.ndarray:
     return t
 
 
-def _tensor(sv):
+def voigt_tensor(sv):
     """(..., d, d) symmetric tensors from Voigt vectors (..., s) (xx, yy, xy in 2D; xx, yy, zz, yz, xz, xy in 3D)."""
     dim = 3 if sv.shape[-1] == 6 else 2
     out = np.empty(sv.shape[:-1] + (dim, dim))
@@ -69,7 +69,7 @@ def simplex_diameters(points, simplices) -> np.ndarray:
     return out
 
 
-def _facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
+def facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
     """(k, d): the local index in each cell (vertices ``cell_vertices`` (k, d + 1)) of each vertex of its facet
     ``facet_vertices`` (k, d)."""
     return np.argmax(cell_vertices[:, :, None] == facet_vertices[:, None, :], axis=1)
@@ -78,8 +78,8 @@ def _facet_positions(cell_vertices, facet_vertices) -> np.ndarray:
 def _facet_values(values, cell_vertices, facet_vertices, pos=None):
     """(k, d, ...) the vertex values ``values`` (k, d + 1, ...) of cells with vertices ``cell_vertices``
     (k, d + 1) at the vertices ``facet_vertices`` (k, d) of one facet of each (``pos``: their
-    :func:`_facet_positions`, if known)."""
-    pos = _facet_positions(cell_vertices, facet_vertices) if pos is None else pos
+    :func:`facet_positions`, if known)."""
+    pos = facet_positions(cell_vertices, facet_vertices) if pos is None else pos
     return values[np.arange(len(values))[:, None], pos]
 
 
@@ -95,7 +95,7 @@ def _bary(cell_vertices, facet_vertices, Lf):
 
 def _traction(sigma_v, L, n):
     """sigma n (k, d) at barycentric L (k, d + 1) of Voigt vertex values (k, d + 1, s), unit normals n (k, d)."""
-    return np.einsum("kij,kj->ki", _tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
+    return np.einsum("kij,kj->ki", voigt_tensor(np.einsum("kv,kvs->ks", L, sigma_v)), n)
 
 
 class SimplexSides:
@@ -152,7 +152,7 @@ class SimplexSide:
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
         mesh, cell, f = self._mesh, self.cell, self.f
-        tv = _voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
+        tv = voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
         acc = np.zeros(len(f))
         for Lf, w in zip(*simplex_rule(2, 2)):
             acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
@@ -216,7 +216,7 @@ def _merged_values(c, s, values):
     return c.trace.values(np.asarray(c.x, dtype=float), values, s)
 
 
-def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
+def contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
     merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
     the cells of the sides (module docstring)."""
@@ -299,7 +299,7 @@ def _share(owners, terms, data, eta2, parts):
             parts[name] = parts.get(name, 0.0) + float(term.sum())
 
 
-def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
+def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
     int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
     P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by

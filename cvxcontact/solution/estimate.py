@@ -261,8 +261,8 @@ class Geometry:
         q = self.G.shape[1]                                   # the fields' distinct values per cell (_fields)
         area = dim * self.measure[c0] * size                  # |F| = d |T| |grad L_i|
         hF = simplex_diameters(mesh.points, vertices)
-        pos0 = (contact._facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
-        pos1 = (contact._facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
+        pos0 = (contact.facet_positions(mesh.cells[c0], vertices) % q)[:, :min(q, dim)]
+        pos1 = (contact.facet_positions(mesh.cells[c1], vertices[ii]) % q)[:, :min(q, dim)]
         at1 = np.full(pos0.shape, q * len(self.el), dtype=self.index)   # a boundary facet's other side: a zero row
         at1[ii] = q * c1[:, None] + pos1
         return _Faces(c0=c0, c1=c1, inner=inner.astype(float), ii=ii, normal=-grad / size[:, None], area=area,
@@ -411,7 +411,7 @@ def estimate(sol, signorini: bool = True, cache: dict | None = None,
         norm2 += energy
         held.append(sides)
         data.append((g.cT, g.kT))
-    terms = contact._contact_terms if scene.dim == 2 else contact._surface_contact_terms
+    terms = contact.contact_terms if scene.dim == 2 else contact.surface_contact_terms
     terms(sol, data, held, eta2, parts, signorini)
     indicators = tuple(read_only(np.sqrt(np.maximum(e, 0.0))) for e in eta2)
     total = float(sum(e.sum() for e in eta2))
@@ -444,7 +444,7 @@ def _element_terms(body, fields, geometry, eta2, parts):
         n = len(sigma) if at_points else 1                 # (and with constant loads one residual for every cell)
         div, rd = np.zeros((n, dim)), (None if D is None else np.zeros(n))
     else:
-        dsig = contact._tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))          # (m, j, i, i')
+        dsig = contact.voigt_tensor(np.einsum("mvs,mjv->mjs", sigma, gradL))          # (m, j, i, i')
         div = np.einsum("mjij->mi", dsig)
         rd = np.einsum("mvd,mdv->m", D, gradL) if D is not None else None       # div D (constant)
     mech = (div ** 2).sum(axis=1)                          # constant residuals without loads
@@ -502,7 +502,7 @@ def _facet_terms(body, fields, geometry, eta2, parts, sol):
     partial = {tag: [comp for comp, val in enumerate(v) if val is not None] for tag, v in body.displacement.items()
                if mech_role.get(tag) == "partial"}
     roles = g.roles(mech_role, elec_role, partial)
-    Rv = _normal_jumps(sigma, f, n, contact._voigt_traction)                                      # (k, v, d)
+    Rv = _normal_jumps(sigma, f, n, contact.voigt_traction)                                      # (k, v, d)
     rv = None if D is None else _normal_jumps(D, f, n, lambda J, nb: np.einsum("kvd,kd->kv", J, nb))  # (k, v)
     loaded = roles.loaded
     Rl = Rv[loaded]                                       # the loaded facets' by a rule below (copies)

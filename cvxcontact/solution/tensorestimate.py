@@ -84,7 +84,7 @@ class TensorGeometry:
         vertices = every[first]
         pos1 = np.zeros_like(vertices)
         ii = second >= 0
-        pos1[ii] = contact._facet_positions(cells[owners[ii, 1]], vertices[ii])
+        pos1[ii] = contact.facet_positions(cells[owners[ii, 1]], vertices[ii])
         return owners, faces[first % nf], pos1, vertices, keys
 
     def part(self, tag) -> np.ndarray:
@@ -104,7 +104,7 @@ class TensorGeometry:
         d, nc = self.dim, self._components
         unit = np.eye(nc * d).reshape(nc * d, nc, d)                            # dw_c / dx_g = 1 for one (c, g)
         _, _, sigma, D = self._values(unit)
-        F = contact._tensor(sigma)                                              # ((c, g), i, p)
+        F = contact.voigt_tensor(sigma)                                              # ((c, g), i, p)
         if D is not None:
             F = np.concatenate([F, D[:, None, :]], axis=1)
         M = F.reshape(nc, d, -1, d).transpose(0, 1, 3, 2)                      # (c, g, p, i)
@@ -293,8 +293,8 @@ class TensorGeometry:
             length = np.sqrt((nvec ** 2).sum(axis=1))
             da = wq * length
             n = nvec / length[:, None]
-            R = contact._voigt_traction(sigma[:, None], n)[:, 0]
-            R[ii] -= contact._voigt_traction(sigma1[:, None], n[ii])[:, 0]
+            R = contact.voigt_traction(sigma[:, None], n)[:, 0]
+            R[ii] -= contact.voigt_traction(sigma1[:, None], n[ii])[:, 0]
             for tag, load in body.traction.items():
                 at = self.part(tag)
                 R[at] -= np.asarray(load(*x[at].T), dtype=float).reshape(len(at), dim)
@@ -421,7 +421,7 @@ class TensorSide:
         self.cell = geometry.facets[0][geometry.part(part), 0]
         self.normals = mesh.outward_normals(part)
         self.hF = contact.simplex_diameters(mesh.points, self.f)
-        self._pos = contact._facet_positions(np.asarray(mesh.cells)[self.cell], self.f)    # (k, v) in each cell
+        self._pos = contact.facet_positions(np.asarray(mesh.cells)[self.cell], self.f)    # (k, v) in each cell
         # the trace's elements: the edges themselves (2D); the faces' triangles 2 j, 2 j + 1 of face j (3D)
         self._elements = np.asarray(getattr(mesh, "triangulation", mesh).boundary(part))
         self._per = len(self._elements) // max(len(self.f), 1)
@@ -439,10 +439,10 @@ class TensorSide:
         L = np.broadcast_to(np.asarray(L, dtype=float), tri.shape)
         cell = self.cell[face]
         x = np.einsum("kv,kvd->kd", L, g._mesh.points[tri])
-        start = np.einsum("kv,kvd->kd", L, g.element.corners[contact._facet_positions(np.asarray(g._mesh.cells)[cell], tri)])
+        start = np.einsum("kv,kvd->kd", L, g.element.corners[contact.facet_positions(np.asarray(g._mesh.cells)[cell], tri)])
         xi = g.element.locate(g.corners[cell], x, start)
         sigma = g._fields_of(g._evaluate(g._corners_T[cell], self._W[cell], g._basis(xi, False)))[5]
-        return np.einsum("kij,kj->ki", contact._tensor(sigma), self.normals[face])
+        return np.einsum("kij,kj->ki", contact.voigt_tensor(sigma), self.normals[face])
 
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F, by the facet rule of the geometry."""
@@ -450,5 +450,5 @@ class TensorSide:
         acc = np.zeros(len(self.f))
         for wq, _, nvec, _, _, sigma, _ in g._facet_points(self.cell, self._pos, self._W):
             da = wq * np.sqrt((nvec ** 2).sum(axis=1))
-            acc += da * (contact._voigt_traction(sigma[:, None], self.normals)[:, 0] ** 2).sum(axis=1)
+            acc += da * (contact.voigt_traction(sigma[:, None], self.normals)[:, 0] ** 2).sum(axis=1)
         return acc

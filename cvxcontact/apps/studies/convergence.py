@@ -284,12 +284,12 @@ def run(out, quick=False, progress=None, scenes=SCENES):
     main = [k for k in ("hertzian", "partial") if k in scenes]
     if main:
         n_ref = 32 if quick else 256
-        rows, rates, _ = _measure(main, levels, n_ref, say)
+        rows, rates, _ = measure_rates(main, levels, n_ref, say)
         _write(out, "convergence", main, rows, rates, levels, n_ref)
         result.update(rows=rows, rates=rates)
     if "smooth" in scenes:
         n_ref = 32 if quick else 512
-        rows, rates, check = _measure(["smooth"], levels, n_ref, say, check_reference=True)
+        rows, rates, check = measure_rates(["smooth"], levels, n_ref, say, check_reference=True)
         _write(out, "convergence_smooth", ["smooth"], rows, rates, levels, n_ref, check)
         result["smooth"] = dict(rows=rows, rates=rates, reference_check=check)
         if not main:
@@ -316,7 +316,7 @@ def _no_columns(sol) -> dict:
     return {}
 
 
-def _measure(kinds, levels, n_ref, say, check_reference=False, cases=CASES, reference=None, method="condensed",
+def measure_rates(kinds, levels, n_ref, say, check_reference=False, cases=CASES, reference=None, method="condensed",
              material=ALUMINIUM, extra=_no_columns):
     """Errors and rates of every (scene, degree, condition, level) against the scene's reference; with
     ``check_reference``, also the errors of the reference at n_ref / 2 against the one at n_ref.
@@ -361,7 +361,7 @@ def _write(out, stem, kinds, rows, rates, levels, n_ref, checks=()):
     """The CSV files, the figure and the Markdown summary of one group of scenes, named ``stem``.*."""
     write_csv(out / f"{stem}.csv", rows)
     write_csv(out / f"{stem}_rates.csv", rates)
-    _figure(rows, rates, out / f"{stem}.png", kinds)
+    rates_figure(rows, rates, out / f"{stem}.png", kinds)
     f2 = {k: ".2f" for k in ("rate_energy", "last_energy", "rate_lam_l2", "rate_lam_h12", "last_lam_h12",
                              "rate_traction_l2")}
     title = "Convergence study" + (": smooth scene" if kinds == ["smooth"] else "")
@@ -412,7 +412,7 @@ LINES = {1: "-", 2: "--"}
 """The figures' line style of each degree."""
 
 
-def _figure(rows, rates, path, kinds=("hertzian", "partial")):
+def rates_figure(rows, rates, path, kinds=("hertzian", "partial")):
     plt = pyplot()
     fig, axes = plt.subplots(3, len(kinds), figsize=(6 * len(kinds), 12), layout="constrained", sharex=True,
                              squeeze=False)

@@ -122,7 +122,7 @@ def run(out, quick=False, progress=None):
     refused = refusals()
     for r in refused:
         say(f"convergence_hencky: P{r['degree']} {r['condition']} with a Hencky body: {r['error']}")
-    rows, rates, checks = convergence._measure([SCENE], levels, n_ref, say, check_reference=True, cases=CASES,
+    rows, rates, checks = convergence.measure_rates([SCENE], levels, n_ref, say, check_reference=True, cases=CASES,
                                                reference=REFERENCE, method=METHOD, material=HENCKY, extra=_columns)
     _write(out, rows, rates, checks, refused, levels, n_ref)
     return {"rows": rows, "rates": rates, "reference_check": checks, "refused": refused}
@@ -133,7 +133,7 @@ def _write(out, rows, rates, checks, refused, levels, n_ref):
     write_csv(out / f"{stem}.csv", rows)
     write_csv(out / f"{stem}_rates.csv", rates)
     write_csv(out / f"{stem}_reference.csv", checks)
-    convergence._figure(rows, rates, out / f"{stem}.png", [SCENE])
+    convergence.rates_figure(rows, rates, out / f"{stem}.png", [SCENE])
     e3 = {k: ".3e" for k in ("energy", "lam_l2", "lam_h12", "traction_l2")}
     f2 = {k: ".2f" for k in ("rate_energy", "last_energy", "rate_lam_l2", "rate_lam_h12", "last_lam_h12",
                              "rate_traction_l2")}

@@ -217,39 +217,73 @@ def _merged_values(c, s, values):
 
 
 def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
-    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
-    the cells of the sides (module docstring)."""
+    """2D: on each side (body, contact part) h_E ||sigma_h n + sum_i (lambda_i n - t_i t)||^2 / c_T over the pairs
+    i that hold the part (one, or several obstacles each reaching part of it; t_i a friction law's, the first body's
+    and the opposite on the second), once per side; on each merged segment of a Signorini pair the
+    complementarity and the penetration (and the friction terms), shared by the cells of the sides (module
+    docstring)."""
     scene = sol.scene
     bodies = list(scene.bodies)
+    held: dict = {}                                                     # per side (k, part): [(pair, its side)]
+    for i, pair in enumerate(scene.contacts):
+        for side, (body, part) in enumerate([(pair.body_a, pair.part_a)]
+                                            + ([] if pair.rigid else [(pair.other, pair.part_b)])):
+            held.setdefault((next(j for j, b in enumerate(bodies) if b is body), part), []).append((i, side))
+    done, fields = set(), {}
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
-        t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
-        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
-            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
-        for side, (body, part) in enumerate(sides):
+        fields[i] = _pair_fields(sol, i)
+        located = []
+        for body, part in sides:
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
             on = cache[k].side(part)
             cell, e, n = on.cell, on.f, on.normals                      # e oriented: domain on the left
             p = mesh.points
-            h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
-            acc = np.zeros(len(e))
-            for tq, w in zip(*_GAUSS3):
-                x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
-                R = on.traction(slice(None), np.array([1 - tq, tq])) + _lambda_at(c, x @ t)[:, None] * n
-                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
-                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
-                acc += w * (R ** 2).sum(axis=1)
-            term = h ** 2 * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
+            if (k, part) not in done:
+                done.add((k, part))
+                for j, _ in held[(k, part)]:
+                    if j not in fields:
+                        fields[j] = _pair_fields(sol, j)
+                h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
+                acc = np.zeros(len(e))
+                for tq, w in zip(*_GAUSS3):
+                    x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
+                    R = on.traction(slice(None), np.array([1 - tq, tq]))
+                    for j, side in held[(k, part)]:
+                        cj, t, x_line, lam, tv = fields[j]
+                        R += _line_at(cj, x_line, lam, x @ t)[:, None] * n
+                        if tv is not None:                              # the first body's t_h t, the other's -t_h t
+                            R -= (1 - 2 * side) * np.column_stack([_line_at(cj, x_line, v, x @ t) for v in tv.T])
+                    acc += w * (R ** 2).sum(axis=1)
+                term = h ** 2 * acc / data[k][0]
+                np.add.at(eta2[k], cell, term)
+                parts["contact traction"] += float(term.sum())
+            t = fields[i][1]
             s_lo, s_hi = np.minimum(p[e[:, 0]] @ t, p[e[:, 1]] @ t), np.maximum(p[e[:, 0]] @ t, p[e[:, 1]] @ t)
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts, fr)
+        _signorini_terms(c, located, data, eta2, parts, slip.friction_of(sol, i))
+
+
+def _pair_fields(sol, i):
+    """2D pair ``i`` of ``sol`` as the traction term reads it: (its contact result, its tangent (2,), the line its
+    functions live on (m, :meth:`~cvxcontact.contact.interface.Interface.support`), lambda_h there, a friction
+    law's t_h there as vectors (n, 2) along each row's tangent (turned: a curve), or None)."""
+    c, line = sol.contacts[i], sol._pair_line(i)
+    t = np.asarray(sol.scene.interfaces[i].tangent, dtype=float)
+    x, lam = line.support(c.lam)
+    fr = slip.friction_of(sol, i)                                       # a friction law's t_h, else None
+    if fr is None:
+        return c, t, x, lam, None
+    return c, t, x, lam, line.support(fr.t[:, None] * np.broadcast_to(row_tangents(line, 0), (len(fr.t), 2)))[1]
+
+
+def _line_at(c, x, values, s):
+    """The function of nodal ``values`` on the line of nodes ``x`` (m) of 2D contact result ``c``'s trace (P1,
+    P2) at tangential coordinates ``s`` (m), 0 beyond it."""
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, c.trace.values(x, values, s))
 
 
 def _signorini_terms(c, located, data, eta2, parts, fr=None):
@@ -300,15 +334,21 @@ def _share(owners, terms, data, eta2, parts):
 
 
 def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
-    int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
-    P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
-    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
-    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
-    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
-    centroid."""
+    """3D: on each side (body, contact part) h_F ||sigma_h n + sum_i (lambda_i n - t_i)||_F^2 / c_T on its faces F,
+    the sum over the pairs i that hold the part (one, or several obstacles each reaching part of it), as
+    int_F |sigma_h n|^2 (once) + over the elements S of each pair's X_h int_S (2 lambda_i sigma_nn + lambda_i^2)
+    (lambda_i a P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
+    :func:`~cvxcontact.contact.overlay.locate` in the plane) + the cross terms between the pairs
+    (:func:`_cross_terms`); a friction law's t_i (the first body's, -t_i on the second) adds
+    int_S (|t_i|^2 - 2 t_i . (sigma_h n + lambda_i n)). On each S of a Signorini pair the complementarity and the
+    penetration (and the friction terms), shared by the cells of the sides that hold its centroid."""
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
+    last, acc, seen = {}, {}, {}                      # per side (k, part): its last pair, int_F |R_F|^2, its pairs
+    for i, c in enumerate(sol.contacts):
+        for trace in sol._pair_line(i).traces:
+            linear = getattr(trace, "linear", trace)
+            last[(next(j for j, b in enumerate(bodies) if b is linear.body), linear.part)] = i
     for i, c in enumerate(sol.contacts):
         itf = sol._pair_line(i)
         elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
@@ -316,12 +356,14 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
         first = getattr(itf.traces[0], "linear", itf.traces[0])          # P2: its P1 trace (the same faces)
         k0 = next(j for j, b in enumerate(bodies) if b is first.body)
-        lam = np.append(cache[k0].multiplier(c, first.part), 0.0)[elements]
+        lam_nodes = np.append(cache[k0].multiplier(c, first.part), 0.0)
+        lam = lam_nodes[elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
         fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
         if fr is not None:
             fr = cache[k0].friction(fr, c, first.part)
         tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
+        tan_nodes = None if fr is None else slip.nodal_tangential(fr, row_frames(itf))
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
             live |= tan[0]
@@ -337,9 +379,11 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
             linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
             k = next(j for j, b in enumerate(bodies) if b is linear.body)
+            key = (k, linear.part)
             on = cache[k].side(linear.part)
             cell, normals = on.cell, on.normals
-            acc = on.squares()                                          # int_F |sigma_h n|^2 of each face
+            if key not in acc:
+                acc[key] = on.squares()                                 # int_F |sigma_h n|^2 of each face, once
             if host is None:                                            # S not matched to the faces: find them
                 face, Lf = locate(xq, linear.x, linear.faces)
                 fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
@@ -352,13 +396,20 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             fq = on.face_of(face[ok])
             lq = lam.ravel()[ok]
             R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
-            if tan is not None:                                     # the first body's t_h, the other's -t_h
-                tq = (1 - 2 * side) * tan[ok]
+            sign = 1 - 2 * side                                         # the first body's t_h, the other's -t_h
+            if tan is not None:
+                tq = sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
-            np.add.at(acc, fq, wts[ok] * R2)
-            term = on.hF * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
+            np.add.at(acc[key], fq, wts[ok] * R2)
+            mine = _PairSide(linear, face[ok], Lf[ok], fq, wts[ok], elements, corners, lam_nodes,
+                             None if tan_nodes is None else sign * tan_nodes)
+            for other in seen.get(key, []):                             # the cross terms with the part's pairs
+                _cross_terms(acc[key], normals, mine, other)
+            seen.setdefault(key, []).append(mine)
+            if last[key] == i:                                         # the side's last pair: its term
+                term = on.hF * acc[key] / data[k][0]
+                np.add.at(eta2[k], cell, term)
+                parts["contact traction"] += float(term.sum())
             owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
@@ -370,3 +421,41 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
             terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)
+
+
+class _PairSide:
+    """What one pair puts on one side (body, contact part) for the cross terms (:func:`_cross_terms`): its P1
+    ``trace`` there; at its rule's points on the side, the trace's faces ``face`` (p,), their barycentric
+    coordinates ``Lf`` (p, 3), the side's faces ``fq`` (p,) and the weights ``w`` (p,) m^2; its live elements of
+    X_h (nodes ``elements`` (e, 3 | 6), -1 outside; in-plane ``corners`` (e, 3, 2) m), lambda_h at the nodes of X_h
+    ``lam`` (n + 1,) (last: 0) and a friction law's t_h as vectors on this side (signed; (n + 1, 3), or None)."""
+
+    def __init__(self, trace, face, Lf, fq, w, elements, corners, lam, tan):
+        self.trace, self.face, self.Lf, self.fq, self.w = trace, face, Lf, fq, w
+        self.elements, self.corners, self.lam, self.tan = elements, corners, lam, tan
+
+    def at(self, face, Lf, normals) -> np.ndarray:
+        """(p, 3) lambda_h n - t_h (Pa) at the points of barycentric coordinates ``Lf`` (p, 3) on the faces
+        ``face`` (p,) of its trace (``normals`` (p, 3) the side's there); 0 beyond its elements."""
+        x = np.einsum("pv,pvd->pd", Lf, np.asarray(self.trace.x)[np.asarray(self.trace.faces)[face][:, :3]])
+        tri = np.arange(3 * len(self.corners)).reshape(-1, 3)
+        S, L = locate(x, self.corners.reshape(-1, 2), tri)
+        inside = S >= 0
+        N = L if self.elements.shape[1] == 3 else shape_functions(L)                           # (p, 3 | 6)
+        nodes = np.where(inside[:, None], self.elements[np.maximum(S, 0)], -1)
+        out = (N * self.lam[nodes]).sum(axis=1)[:, None] * normals
+        if self.tan is not None:
+            out -= np.einsum("pk,pkd->pd", N, self.tan[nodes])
+        return out
+
+
+def _cross_terms(acc, normals, a, b):
+    """Add to ``acc`` (k,) of the side's faces the cross terms 2 int_F (lambda_a n - t_a) . (lambda_b n - t_b) of
+    two pairs :class:`_PairSide` ``a``, ``b`` on one side, by the rule on the elements of the pair with more
+    points there, the other's function read at those points: exact where each element of the one lies in one
+    element of the other or outside them all (obstacles: the faces themselves; disjoint supports: 0)."""
+    if len(b.w) > len(a.w):
+        a, b = b, a
+    va = a.at(a.face, a.Lf, normals[a.fq])
+    vb = b.at(a.face, a.Lf, normals[a.fq])
+    np.add.at(acc, a.fq, 2 * a.w * (va * vb).sum(axis=1))

@@ -43,7 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Friction", "friction_elements", "friction_of", "friction_segments", "tangential_vectors"]
+__all__ = ["Friction", "friction_elements", "friction_of", "friction_segments", "nodal_tangential",
+           "tangential_vectors"]
 
 
 @dataclass(frozen=True)
@@ -91,9 +92,15 @@ def tangential_vectors(f: Friction | None, frames, elements, N) -> tuple[np.ndar
     at the rule's points of shape values ``N`` (q, 3 | 6)); None without a friction law (``f`` None)."""
     if f is None:
         return None
-    fr = np.asarray(frames, dtype=float)
-    nodal = np.concatenate([f.t[:, :1] * fr[0] + f.t[:, 1:] * fr[1], np.zeros((1, 3))])[elements]     # (e, k, 3)
+    nodal = nodal_tangential(f, frames)[elements]                                             # (e, k, 3)
     return (nodal != 0).any(axis=(1, 2)), np.einsum("qk,ek...->eq...", N, nodal)
+
+
+def nodal_tangential(f: Friction, frames) -> np.ndarray:
+    """3D: (n + 1, 3) t_h (Pa) as vectors at the n nodes of X_h along the rows' ``frames`` (as
+    :func:`tangential_vectors`), and a last row of zeros (index -1: outside X_h)."""
+    fr = np.asarray(frames, dtype=float)
+    return np.concatenate([f.t[:, :1] * fr[0] + f.t[:, 1:] * fr[1], np.zeros((1, 3))])
 
 
 def friction_elements(f: Friction, elements, N, weights) -> tuple[np.ndarray, np.ndarray]:

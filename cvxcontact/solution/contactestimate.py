@@ -341,29 +341,24 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     :func:`~cvxcontact.contact.overlay.locate` in the plane) + the cross terms between the pairs
     (:func:`_cross_terms`); a friction law's t_i (the first body's, -t_i on the second) adds
     int_S (|t_i|^2 - 2 t_i . (sigma_h n + lambda_i n)). On each S of a Signorini pair the complementarity and the
-    penetration (and the friction terms), shared by the cells of the sides that hold its centroid."""
+    penetration (and the friction terms: of the fields summed over the pairs that share its first side,
+    :func:`_shared_friction`), shared by the cells of the sides that hold its centroid."""
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
-    last, acc, seen = {}, {}, {}                      # per side (k, part): its last pair, int_F |R_F|^2, its pairs
-    for i, c in enumerate(sol.contacts):
-        for trace in sol._pair_line(i).traces:
-            linear = getattr(trace, "linear", trace)
-            last[(next(j for j, b in enumerate(bodies) if b is linear.body), linear.part)] = i
-    for i, c in enumerate(sol.contacts):
-        itf = sol._pair_line(i)
-        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
-        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
-        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
-        first = getattr(itf.traces[0], "linear", itf.traces[0])          # P2: its P1 trace (the same faces)
-        k0 = next(j for j, b in enumerate(bodies) if b is first.body)
-        lam_nodes = np.append(cache[k0].multiplier(c, first.part), 0.0)
-        lam = lam_nodes[elements]
+    pairs = [_pair_fields3d(sol, i, cache, bodies) for i in range(len(sol.contacts))]
+    last, held = {}, {}                               # per side (k, part): its last pair, its [_PairSide]
+    for i, pr in enumerate(pairs):
+        for ps in pr["sides"]:
+            last[ps.key] = i
+            held.setdefault(ps.key, []).append(ps)
+    acc = {}                                          # per side: int_F |R_F|^2 of its faces
+    for i, (c, pr) in enumerate(zip(sol.contacts, pairs)):
+        itf, fr = pr["itf"], pr["fr"]
+        elements, corners, hosts = pr["elements"], pr["corners"], pr["hosts"]
+        open_ = pr["open"]
+        lam = pr["lam"][elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
-        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
-        if fr is not None:
-            fr = cache[k0].friction(fr, c, first.part)
         tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
-        tan_nodes = None if fr is None else slip.nodal_tangential(fr, row_frames(itf))
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
             live |= tan[0]
@@ -376,10 +371,8 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
         wts = (areaS[:, None] * wq[None, :]).ravel()
         owners = []
-        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
-            linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
-            k = next(j for j, b in enumerate(bodies) if b is linear.body)
-            key = (k, linear.part)
+        for side, (ps, host) in enumerate(zip(pr["sides"], hosts)):
+            linear, k, key = ps.trace, ps.key[0], ps.key
             on = cache[k].side(linear.part)
             cell, normals = on.cell, on.normals
             if key not in acc:
@@ -396,16 +389,13 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             fq = on.face_of(face[ok])
             lq = lam.ravel()[ok]
             R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
-            sign = 1 - 2 * side                                         # the first body's t_h, the other's -t_h
-            if tan is not None:
-                tq = sign * tan[ok]
+            if tan is not None:                                     # the first body's t_h, the other's -t_h
+                tq = ps.sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
             np.add.at(acc[key], fq, wts[ok] * R2)
-            mine = _PairSide(linear, face[ok], Lf[ok], fq, wts[ok], elements, corners, lam_nodes,
-                             None if tan_nodes is None else sign * tan_nodes)
-            for other in seen.get(key, []):                             # the cross terms with the part's pairs
-                _cross_terms(acc[key], normals, mine, other)
-            seen.setdefault(key, []).append(mine)
+            ps.points(face, Lf, fq, wts, ok, np.tile(N, (len(elements), 1)), np.repeat(elements, len(wq), axis=0))
+            for other in held[key][:held[key].index(ps)]:            # the cross terms with the part's pairs
+                _cross_terms(acc[key], normals, ps, other)
             if last[key] == i:                                         # the side's last pair: its term
                 term = on.hF * acc[key] / data[k][0]
                 np.add.at(eta2[k], cell, term)
@@ -418,35 +408,86 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
-            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            first = pr["sides"][0]
+            if len(held[first.key]) == 1:
+                cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            else:
+                cone, slides = _shared_friction(first, held[first.key], len(elements), len(wq))
             terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)
 
 
+def _pair_fields3d(sol, i, cache, bodies) -> dict:
+    """Pair ``i`` of a 3D ``sol`` as the contact terms read it: its line ``itf``, the elements of X_h
+    (``elements``, ``corners``, ``hosts``: :meth:`elements`), g - [u_nu] (``open``) and lambda_h (``lam``) at their
+    nodes (last: 0), a friction law's ``fr`` (or None) and a :class:`_PairSide` per side (``sides``)."""
+    c, itf = sol.contacts[i], sol._pair_line(i)
+    elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+    gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
+    open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]              # g - [u_nu] at their nodes
+    first = getattr(itf.traces[0], "linear", itf.traces[0])              # P2: its P1 trace (the same faces)
+    k0 = next(j for j, b in enumerate(bodies) if b is first.body)
+    lam = np.append(cache[k0].multiplier(c, first.part), 0.0)
+    fr = slip.friction_of(sol, i)                                      # a friction law's t_h, else None
+    nodal = {"lam": lam}
+    if fr is not None:
+        fr = cache[k0].friction(fr, c, first.part)
+        frames = row_frames(itf)
+        nodal.update(t=slip.nodal_vectors(fr.t, frames), s=slip.nodal_vectors(fr.s, frames),
+                     r=slip.nodal_vectors(fr.r, frames), g=np.append(np.asarray(fr.g, dtype=float), 0.0))
+    sides = []
+    for side, trace in enumerate(itf.traces):
+        linear = getattr(trace, "linear", trace)                      # P2: its P1 trace (the same faces)
+        k = next(j for j, b in enumerate(bodies) if b is linear.body)
+        sign = 1 - 2 * side                                            # the first body's t_h, the other's -t_h
+        signed = {name: sign * v if name in _SIGNED else v for name, v in nodal.items()}
+        sides.append(_PairSide((k, linear.part), linear, sign, elements, corners, signed))
+    return {"itf": itf, "elements": elements, "corners": corners, "hosts": hosts, "open": open_, "lam": lam,
+            "fr": fr, "sides": sides}
+
+
+_SIGNED = ("t", "s", "r")
+"""The tangential fields a pair's second body reads with the opposite sign (t_h, the slip, t_r)."""
+
+
 class _PairSide:
-    """What one pair puts on one side (body, contact part) for the cross terms (:func:`_cross_terms`): its P1
-    ``trace`` there; at its rule's points on the side, the trace's faces ``face`` (p,), their barycentric
-    coordinates ``Lf`` (p, 3), the side's faces ``fq`` (p,) and the weights ``w`` (p,) m^2; its live elements of
-    X_h (nodes ``elements`` (e, 3 | 6), -1 outside; in-plane ``corners`` (e, 3, 2) m), lambda_h at the nodes of X_h
-    ``lam`` (n + 1,) (last: 0) and a friction law's t_h as vectors on this side (signed; (n + 1, 3), or None)."""
+    """What one pair puts on one side ``key`` (body k, contact part): its P1 ``trace`` there, the ``sign`` of its
+    tangential fields there (the first body +1, the second -1), the elements of X_h (nodes ``elements``
+    (e, 3 | 6), -1 outside; in-plane ``corners`` (e, 3, 2) m) and the ``nodal`` values at the nodes of X_h (last
+    row 0): lambda_h "lam" (Pa), a friction law's t_h, the slip and t_r as vectors "t", "s", "r" (times
+    ``sign``) and g_h "g"; after :meth:`points`, its rule's points on the side."""
 
-    def __init__(self, trace, face, Lf, fq, w, elements, corners, lam, tan):
-        self.trace, self.face, self.Lf, self.fq, self.w = trace, face, Lf, fq, w
-        self.elements, self.corners, self.lam, self.tan = elements, corners, lam, tan
+    def __init__(self, key, trace, sign, elements, corners, nodal):
+        self.key, self.trace, self.sign = key, trace, sign
+        self.elements, self.corners, self.nodal = elements, corners, nodal
 
-    def at(self, face, Lf, normals) -> np.ndarray:
-        """(p, 3) lambda_h n - t_h (Pa) at the points of barycentric coordinates ``Lf`` (p, 3) on the faces
-        ``face`` (p,) of its trace (``normals`` (p, 3) the side's there); 0 beyond its elements."""
-        x = np.einsum("pv,pvd->pd", Lf, np.asarray(self.trace.x)[np.asarray(self.trace.faces)[face][:, :3]])
-        tri = np.arange(3 * len(self.corners)).reshape(-1, 3)
-        S, L = locate(x, self.corners.reshape(-1, 2), tri)
-        inside = S >= 0
-        N = L if self.elements.shape[1] == 3 else shape_functions(L)                           # (p, 3 | 6)
-        nodes = np.where(inside[:, None], self.elements[np.maximum(S, 0)], -1)
-        out = (N * self.lam[nodes]).sum(axis=1)[:, None] * normals
-        if self.tan is not None:
-            out -= np.einsum("pk,pkd->pd", N, self.tan[nodes])
-        return out
+    def points(self, face, Lf, fq, w, ok, N, nodes):
+        """Keep the rule's points on the live elements of X_h: the trace's faces ``face`` (-1: none) and
+        barycentric coordinates ``Lf`` (p, 3) there, the weights ``w`` (p,) m^2, the side's faces ``fq`` of those
+        in ``ok``; the shape values ``N`` (p, 3 | 6) and nodes of X_h ``nodes`` (p, 3 | 6) of every point."""
+        self.all_face, self.all_Lf, self.all_w, self.own = face, Lf, w, (N, nodes)
+        self.face, self.Lf, self.fq, self.w = face[ok], Lf[ok], fq, w[ok]
+
+    def read(self, face, Lf) -> tuple[np.ndarray, np.ndarray]:
+        """(shape values (p, 3 | 6), nodes of X_h (p, 3 | 6), -1 beyond its elements) at the points of
+        barycentric coordinates ``Lf`` (p, 3) on the faces ``face`` (p,) of its trace (-1: none)."""
+        faces = np.asarray(self.trace.faces)[np.maximum(face, 0)][:, :3]
+        x = np.einsum("pv,pvd->pd", Lf, np.asarray(self.trace.x)[faces])
+        S, L = locate(x, self.corners.reshape(-1, 2), np.arange(3 * len(self.corners)).reshape(-1, 3))
+        inside = (S >= 0) & (face >= 0)
+        N = L if self.elements.shape[1] == 3 else shape_functions(L)
+        return N, np.where(inside[:, None], self.elements[np.maximum(S, 0)], -1)
+
+    def value(self, name, N, nodes) -> np.ndarray:
+        """(p, ...) the nodal field ``name`` at points read by :meth:`read`."""
+        return np.einsum("pk,pk...->p...", N, self.nodal[name][nodes])
+
+    def traction(self, face, Lf, normals) -> np.ndarray:
+        """(p, 3) lambda_h n - t_h (Pa) at points of barycentric coordinates ``Lf`` on the faces ``face`` of its
+        trace (``normals`` (p, 3) the side's there); 0 beyond its elements."""
+        N, nodes = self.read(face, Lf)
+        out = self.value("lam", N, nodes)[:, None] * normals
+        return out - self.value("t", N, nodes) if "t" in self.nodal else out
 
 
 def _cross_terms(acc, normals, a, b):
@@ -456,6 +497,26 @@ def _cross_terms(acc, normals, a, b):
     element of the other or outside them all (obstacles: the faces themselves; disjoint supports: 0)."""
     if len(b.w) > len(a.w):
         a, b = b, a
-    va = a.at(a.face, a.Lf, normals[a.fq])
-    vb = b.at(a.face, a.Lf, normals[a.fq])
-    np.add.at(acc, a.fq, 2 * a.w * (va * vb).sum(axis=1))
+    n = normals[a.fq]
+    np.add.at(acc, a.fq, 2 * a.w * (a.traction(a.face, a.Lf, n) * b.traction(a.face, a.Lf, n)).sum(axis=1))
+
+
+def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
+    """3D: the friction cone and slip complementarity integrals (as
+    :func:`~cvxcontact.solution.slipestimate.friction_elements`) on the e live elements of X_h (q rule points
+    each) of the pair whose first side is the :class:`_PairSide` ``mine``, of t_h, g_h, the slip and t_r summed
+    over the pairs ``held`` that share that side (its own included), each point weighed 1 / (the number of those
+    pairs whose elements hold it): the union of their supports counted once (obstacles each reaching part of
+    the part: the law of the whole part)."""
+    fields = {name: 0.0 for name in "tgsr"}
+    count = np.zeros(len(mine.all_face))
+    for ps in held:
+        if "t" not in ps.nodal:                                      # a frictionless pair: no t_h, no slip law
+            continue
+        N, nodes = mine.own if ps is mine else ps.read(mine.all_face, mine.all_Lf)
+        count += (nodes >= 0).any(axis=1)
+        for name in fields:
+            fields[name] = fields[name] + ps.value(name, N, nodes)
+    cone, slides = slip.friction_points(fields["t"], fields["g"], fields["s"], fields["r"])
+    w = (mine.all_w / np.maximum(count, 1)).reshape(e, q)
+    return (w * cone.reshape(e, q)).sum(axis=1), (w * slides.reshape(e, q)).sum(axis=1)

@@ -84,9 +84,9 @@ def test_block2d_p1_on_split_floor(split):
     _same_as_one("block2d", split, 1)
 
 
-@pytest.mark.xfail(strict=True, reason="2D P2 against obstacles that both reach a vertex: each pair's lambda_h solves "
-                   "M lambda = r on its own run, so it reads the solver's split of the vertex's force between the two "
-                   "rows (lambda_h -2.23e6 and 13.0e6 Pa there, p = 5.38e6): contact traction 2.47 (norm^2 53.8)")
+@pytest.mark.xfail(strict=True, reason="2D P2 against obstacles that both reach a vertex: each pair's lambda_h "
+                   "solves M lambda = r on its own run, so it reads the solver's split of the vertex's force between "
+                   "the two rows (lambda_h -2.23e6, 13.0e6 Pa there, p = 5.38e6): contact traction 2.47, norm^2 53.8")
 def test_block2d_p2_both_reach_the_vertex():
     """P2 in 2D: two lines that both reach the vertex where they meet (the solution is the closed form; meeting at
     a vertex only one reaches leaves the straddled cell short, docs/checks.md, the solution itself not exact)."""

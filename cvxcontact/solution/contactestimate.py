@@ -232,7 +232,8 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
     done, fields = set(), {}
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        fields[i] = _pair_fields(sol, i)
+        if i not in fields:
+            fields[i] = _pair_fields(sol, i)
         located = []
         for body, part in sides:
             k = next(j for j, b in enumerate(bodies) if b is body)
@@ -251,7 +252,7 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
                     x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
                     R = on.traction(slice(None), np.array([1 - tq, tq]))
                     for j, side in held[(k, part)]:
-                        cj, t, x_line, lam, tv = fields[j]
+                        cj, t, x_line, lam, tv, _ = fields[j]
                         R += _line_at(cj, x_line, lam, x @ t)[:, None] * n
                         if tv is not None:                              # the first body's t_h t, the other's -t_h t
                             R -= (1 - 2 * side) * np.column_stack([_line_at(cj, x_line, v, x @ t) for v in tv.T])
@@ -264,20 +265,22 @@ def _contact_terms(sol, data, cache, eta2, parts, signorini=True):
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts, slip.friction_of(sol, i))
+        _signorini_terms(c, located, data, eta2, parts, fields[i][5])
 
 
 def _pair_fields(sol, i):
     """2D pair ``i`` of ``sol`` as the traction term reads it: (its contact result, its tangent (2,), the line its
     functions live on (m, :meth:`~cvxcontact.contact.interface.Interface.support`), lambda_h there, a friction
-    law's t_h there as vectors (n, 2) along each row's tangent (turned: a curve), or None)."""
+    law's t_h there as vectors (n, 2) along each row's tangent (turned: a curve) and its
+    :class:`~cvxcontact.solution.slipestimate.Friction`, or None, None)."""
     c, line = sol.contacts[i], sol._pair_line(i)
     t = np.asarray(sol.scene.interfaces[i].tangent, dtype=float)
     x, lam = line.support(c.lam)
     fr = slip.friction_of(sol, i)                                       # a friction law's t_h, else None
     if fr is None:
-        return c, t, x, lam, None
-    return c, t, x, lam, line.support(fr.t[:, None] * np.broadcast_to(row_tangents(line, 0), (len(fr.t), 2)))[1]
+        return c, t, x, lam, None, None
+    tv = line.support(fr.t[:, None] * np.broadcast_to(row_tangents(line, 0), (len(fr.t), 2)))[1]
+    return c, t, x, lam, tv, fr
 
 
 def _line_at(c, x, values, s):
@@ -393,7 +396,7 @@ def _surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 tq = ps.sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
             np.add.at(acc[key], fq, wts[ok] * R2)
-            ps.points(face, Lf, fq, wts, ok, np.tile(N, (len(elements), 1)), np.repeat(elements, len(wq), axis=0))
+            ps.points(face, Lf, fq, wts, ok, N, elements)
             for other in held[key][:held[key].index(ps)]:            # the cross terms with the part's pairs
                 _cross_terms(acc[key], normals, ps, other)
             if last[key] == i:                                         # the side's last pair: its term
@@ -461,11 +464,11 @@ class _PairSide:
         self.key, self.trace, self.sign = key, trace, sign
         self.elements, self.corners, self.nodal = elements, corners, nodal
 
-    def points(self, face, Lf, fq, w, ok, N, nodes):
-        """Keep the rule's points on the live elements of X_h: the trace's faces ``face`` (-1: none) and
-        barycentric coordinates ``Lf`` (p, 3) there, the weights ``w`` (p,) m^2, the side's faces ``fq`` of those
-        in ``ok``; the shape values ``N`` (p, 3 | 6) and nodes of X_h ``nodes`` (p, 3 | 6) of every point."""
-        self.all_face, self.all_Lf, self.all_w, self.own = face, Lf, w, (N, nodes)
+    def points(self, face, Lf, fq, w, ok, N, live):
+        """Keep the rule's points on the live elements of X_h ``live`` (e, 3 | 6) (shape values ``N``
+        (q, 3 | 6)): the trace's faces ``face`` (-1: none) and barycentric coordinates ``Lf`` (e q, 3) there, the
+        weights ``w`` (e q,) m^2, the side's faces ``fq`` of those in ``ok``."""
+        self.all_face, self.all_Lf, self.all_w, self.rule = face, Lf, w, (N, live)
         self.face, self.Lf, self.fq, self.w = face[ok], Lf[ok], fq, w[ok]
 
     def read(self, face, Lf) -> tuple[np.ndarray, np.ndarray]:
@@ -513,7 +516,11 @@ def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
     for ps in held:
         if "t" not in ps.nodal:                                      # a frictionless pair: no t_h, no slip law
             continue
-        N, nodes = mine.own if ps is mine else ps.read(mine.all_face, mine.all_Lf)
+        if ps is mine:                                              # its own points: the rule on its elements
+            N, live = mine.rule
+            N, nodes = np.tile(N, (len(live), 1)), np.repeat(live, len(N), axis=0)
+        else:
+            N, nodes = ps.read(mine.all_face, mine.all_Lf)
         count += (nodes >= 0).any(axis=1)
         for name in fields:
             fields[name] = fields[name] + ps.value(name, N, nodes)

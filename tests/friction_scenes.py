@@ -35,14 +35,15 @@ def sheared(q, law, tied=False, nx=8, ny=4, drag=None):
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
 
 
-def uniform_layer(tau, law, nx=4, ny=2):
+def uniform_layer(tau, law, nx=4, ny=2, obstacles=(FLOOR,)):
     """The block (nu = 0) under (tau, -p) on its top and the complementary shear (0, -+tau) on its left and right
-    faces: a uniform state (sigma_yy = -p, sigma_xy = tau), ``law`` against the floor. Stuck: u = (tau y / G,
-    -p y / E), G = E / 2 (plane strain, nu = 0)."""
+    faces: a uniform state (sigma_yy = -p, sigma_xy = tau), ``law`` against the floor (or against ``obstacles``
+    that together are that floor, each reaching part of the bottom). Stuck: u = (tau y / G, -p y / E), G = E / 2
+    (plane strain, nu = 0)."""
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=nx, ny=ny)
     b = cc.Body(m, steel(nu=0.0), contact="bottom",
                 traction={"top": (tau, -P), "left": (0.0, -tau), "right": (0.0, tau)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", o, law=law) for o in obstacles])
 
 
 def pushed(law, s=1e-4):

@@ -224,6 +224,19 @@ class Interface:
         ab[2, :-1] = M.diagonal(-1)
         return sla.solve_banded((1, 1), ab, np.asarray(r, dtype=float))
 
+    def support(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """(abscissae s (m), nodal values): the line on which the P1 function of X_h with nodal ``values`` (at the
+        merged nodes: lambda_h, t_h) lives on the body's trace. Against an obstacle that reaches the part only in
+        part, the whole trace with 0 at the nodes the obstacle misses: each reaching node's hat over the whole
+        part, as :meth:`multiplier` and :meth:`weights` read it (obstacles reaching complementary runs then sum
+        to a uniform pressure on the segment between them); else the merged mesh itself."""
+        values = np.asarray(values, dtype=float)
+        if not self._partial:
+            return np.asarray(self.x, dtype=float), values
+        full = np.zeros((len(self.traces[0].x),) + values.shape[1:])
+        full[self.reach] = values
+        return np.asarray(self.traces[0].x, dtype=float), full
+
     def pressure(self, k, r) -> np.ndarray:
         """The pressure (Pa) felt by body k on its own trace nodes (``traces[k].nodes``): its nodal forces
         interpolation(k)^T r (N/m; exact work equivalence) over the lumped lengths of its trace."""

@@ -220,6 +220,12 @@ class QuadraticInterface:
         """lambda_h (N/m for forces ``r`` in N) at the nodes of X_h: M lambda_h = r (docs/formulation.md §8)."""
         return spla.spsolve(self.mass.tocsc(), np.asarray(r, dtype=float))
 
+    def support(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """(abscissae s (m), nodal values): the line on which the P2 function of X_h with nodal ``values`` lives,
+        X_h itself (against an obstacle reaching the part only in part, the run's own P2 line, as
+        :meth:`multiplier` reads it; 0 beyond it)."""
+        return np.asarray(self.x, dtype=float), np.asarray(values, dtype=float)
+
     def interpolation(self, k) -> sp.csr_matrix:
         """(size, n_trace_k): evaluates P2 functions on the pair's body k's trace at the merged P2 nodes."""
         return self._interp[k]

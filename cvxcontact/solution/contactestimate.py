@@ -217,39 +217,76 @@ def _merged_values(c, s, values):
 
 
 def contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """2D: on each side of each pair h_E ||sigma_h n + lambda_h n (- t_h t, a friction law's)||^2 / c_T; on each
-    merged segment of a Signorini pair the complementarity and the penetration (and the friction terms), shared by
-    the cells of the sides (module docstring)."""
+    """2D: on each side (body, contact part) h_E ||sigma_h n + sum_i (lambda_i n - t_i t)||^2 / c_T over the pairs
+    i that hold the part (one, or several obstacles each reaching part of it; t_i a friction law's, the first body's
+    and the opposite on the second), once per side; on each merged segment of a Signorini pair the
+    complementarity and the penetration (and the friction terms), shared by the cells of the sides (module
+    docstring)."""
     scene = sol.scene
     bodies = list(scene.bodies)
+    held: dict = {}                                                     # per side (k, part): [(pair, its side)]
+    for i, pair in enumerate(scene.contacts):
+        for side, (body, part) in enumerate([(pair.body_a, pair.part_a)]
+                                            + ([] if pair.rigid else [(pair.other, pair.part_b)])):
+            held.setdefault((next(j for j, b in enumerate(bodies) if b is body), part), []).append((i, side))
+    done, fields = set(), {}
     for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
-        t = np.asarray(scene.interfaces[i].tangent, dtype=float)
         sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
-        located, fr = [], slip.friction_of(sol, i)                       # a friction law's t_h, else None
-        if fr is not None:                                     # t_h along each row's tangent (turned: a curve)
-            tv = fr.t[:, None] * np.broadcast_to(row_tangents(sol._pair_line(i), 0), (len(fr.t), 2))
-        for side, (body, part) in enumerate(sides):
+        if i not in fields:
+            fields[i] = _pair_fields(sol, i)
+        located = []
+        for body, part in sides:
             k = next(j for j, b in enumerate(bodies) if b is body)
             mesh = body.mesh
             on = cache[k].side(part)
             cell, e, n = on.cell, on.f, on.normals                      # e oriented: domain on the left
             p = mesh.points
-            h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
-            acc = np.zeros(len(e))
-            for tq, w in zip(*_GAUSS3):
-                x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
-                R = on.traction(slice(None), np.array([1 - tq, tq])) + _lambda_at(c, x @ t)[:, None] * n
-                if fr is not None:                                      # the first body's t_h t, the other's -t_h t
-                    R -= (1 - 2 * side) * np.column_stack([_lambda_at(c, x @ t, v) for v in tv.T])
-                acc += w * (R ** 2).sum(axis=1)
-            term = h ** 2 * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
+            if (k, part) not in done:
+                done.add((k, part))
+                for j, _ in held[(k, part)]:
+                    if j not in fields:
+                        fields[j] = _pair_fields(sol, j)
+                h = np.linalg.norm(p[e[:, 1]] - p[e[:, 0]], axis=1)
+                acc = np.zeros(len(e))
+                for tq, w in zip(*_GAUSS3):
+                    x = (1 - tq) * p[e[:, 0]] + tq * p[e[:, 1]]
+                    R = on.traction(slice(None), np.array([1 - tq, tq]))
+                    for j, side in held[(k, part)]:
+                        cj, t, x_line, lam, tv, _ = fields[j]
+                        R += _line_at(cj, x_line, lam, x @ t)[:, None] * n
+                        if tv is not None:                              # the first body's t_h t, the other's -t_h t
+                            R -= (1 - 2 * side) * np.column_stack([_line_at(cj, x_line, v, x @ t) for v in tv.T])
+                    acc += w * (R ** 2).sum(axis=1)
+                term = h ** 2 * acc / data[k][0]
+                np.add.at(eta2[k], cell, term)
+                parts["contact traction"] += float(term.sum())
+            t = fields[i][1]
             s_lo, s_hi = np.minimum(p[e[:, 0]] @ t, p[e[:, 1]] @ t), np.maximum(p[e[:, 0]] @ t, p[e[:, 1]] @ t)
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts, fr)
+        _signorini_terms(c, located, data, eta2, parts, fields[i][5])
+
+
+def _pair_fields(sol, i):
+    """2D pair ``i`` of ``sol`` as the traction term reads it: (its contact result, its tangent (2,), the line its
+    functions live on (m, :meth:`~cvxcontact.contact.interface.Interface.support`), lambda_h there, a friction
+    law's t_h there as vectors (n, 2) along each row's tangent (turned: a curve) and its
+    :class:`~cvxcontact.solution.slipestimate.Friction`, or None, None)."""
+    c, line = sol.contacts[i], sol._pair_line(i)
+    t = np.asarray(sol.scene.interfaces[i].tangent, dtype=float)
+    x, lam = line.support(c.lam)
+    fr = slip.friction_of(sol, i)                                       # a friction law's t_h, else None
+    if fr is None:
+        return c, t, x, lam, None, None
+    tv = line.support(fr.t[:, None] * np.broadcast_to(row_tangents(line, 0), (len(fr.t), 2)))[1]
+    return c, t, x, lam, tv, fr
+
+
+def _line_at(c, x, values, s):
+    """The function of nodal ``values`` on the line of nodes ``x`` (m) of 2D contact result ``c``'s trace (P1,
+    P2) at tangential coordinates ``s`` (m), 0 beyond it."""
+    return np.where((s < x[0]) | (s > x[-1]), 0.0, c.trace.values(x, values, s))
 
 
 def _signorini_terms(c, located, data, eta2, parts, fr=None):
@@ -300,27 +337,30 @@ def _share(owners, terms, data, eta2, parts):
 
 
 def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
-    """3D: on each side of each pair h_F ||sigma_h n + lambda_h n||_F^2 / c_T on its contact faces F, as
-    int_F |sigma_h n|^2 + int over the elements S of X_h of (2 lambda_h sigma_nn + lambda_h^2) (lambda_h is a
-    P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
-    :func:`~cvxcontact.contact.overlay.locate` in the plane); a friction law's t_h (the first body's, -t_h on the
-    second) adds int_S (|t_h|^2 - 2 t_h . (sigma_h n + lambda_h n)) there. On each S of a Signorini pair the
-    complementarity and the penetration (and the friction terms), shared by the cells of the sides that hold its
-    centroid."""
+    """3D: on each side (body, contact part) h_F ||sigma_h n + sum_i (lambda_i n - t_i)||_F^2 / c_T on its faces F,
+    the sum over the pairs i that hold the part (one, or several obstacles each reaching part of it), as
+    int_F |sigma_h n|^2 (once) + over the elements S of each pair's X_h int_S (2 lambda_i sigma_nn + lambda_i^2)
+    (lambda_i a P1 (P2) function on the S, 0 beyond them; each S lies in one face of each side, found by
+    :func:`~cvxcontact.contact.overlay.locate` in the plane) + the cross terms between the pairs
+    (:func:`_cross_terms`); a friction law's t_i (the first body's, -t_i on the second) adds
+    int_S (|t_i|^2 - 2 t_i . (sigma_h n + lambda_i n)). On each S of a Signorini pair the complementarity and the
+    penetration (and the friction terms: of the fields summed over the pairs that share its first side,
+    :func:`_shared_friction`), shared by the cells of the sides that hold its centroid."""
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
-    for i, c in enumerate(sol.contacts):
-        itf = sol._pair_line(i)
-        elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
-        gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
-        open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]          # g - [u_nu] at their nodes
-        first = getattr(itf.traces[0], "linear", itf.traces[0])          # P2: its P1 trace (the same faces)
-        k0 = next(j for j, b in enumerate(bodies) if b is first.body)
-        lam = np.append(cache[k0].multiplier(c, first.part), 0.0)[elements]
+    pairs = [_pair_fields3d(sol, i, cache, bodies) for i in range(len(sol.contacts))]
+    last, held = {}, {}                               # per side (k, part): its last pair, its [_PairSide]
+    for i, pr in enumerate(pairs):
+        for ps in pr["sides"]:
+            last[ps.key] = i
+            held.setdefault(ps.key, []).append(ps)
+    acc = {}                                          # per side: int_F |R_F|^2 of its faces
+    for i, (c, pr) in enumerate(zip(sol.contacts, pairs)):
+        itf, fr = pr["itf"], pr["fr"]
+        elements, corners, hosts = pr["elements"], pr["corners"], pr["hosts"]
+        open_ = pr["open"]
+        lam = pr["lam"][elements]
         N = Lq if elements.shape[1] == 3 else shape_functions(Lq)                          # (q, 3 | 6)
-        fr = slip.friction_of(sol, i)                                  # a friction law's t_h, else None
-        if fr is not None:
-            fr = cache[k0].friction(fr, c, first.part)
         tan = slip.tangential_vectors(fr, row_frames(itf), elements, N)
         live = (lam != 0).any(axis=1) | (open_ < 0).any(axis=1)    # elsewhere every contact term below is 0
         if tan is not None:
@@ -334,12 +374,12 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         xq = np.einsum("qv,evd->eqd", Lq, corners).reshape(-1, 2)
         wts = (areaS[:, None] * wq[None, :]).ravel()
         owners = []
-        for side, (trace, host) in enumerate(zip(itf.traces, hosts)):
-            linear = getattr(trace, "linear", trace)                  # P2: its P1 trace (the same faces)
-            k = next(j for j, b in enumerate(bodies) if b is linear.body)
+        for side, (ps, host) in enumerate(zip(pr["sides"], hosts)):
+            linear, k, key = ps.trace, ps.key[0], ps.key
             on = cache[k].side(linear.part)
             cell, normals = on.cell, on.normals
-            acc = on.squares()                                          # int_F |sigma_h n|^2 of each face
+            if key not in acc:
+                acc[key] = on.squares()                                 # int_F |sigma_h n|^2 of each face, once
             if host is None:                                            # S not matched to the faces: find them
                 face, Lf = locate(xq, linear.x, linear.faces)
                 fc = locate(corners.mean(axis=1), linear.x, linear.faces)[0]
@@ -353,12 +393,16 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             lq = lam.ravel()[ok]
             R2 = 2 * lq * (s * normals[fq]).sum(axis=1) + lq ** 2
             if tan is not None:                                     # the first body's t_h, the other's -t_h
-                tq = (1 - 2 * side) * tan[ok]
+                tq = ps.sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
-            np.add.at(acc, fq, wts[ok] * R2)
-            term = on.hF * acc / data[k][0]
-            np.add.at(eta2[k], cell, term)
-            parts["contact traction"] += float(term.sum())
+            np.add.at(acc[key], fq, wts[ok] * R2)
+            ps.points(face, Lf, fq, wts, ok, N, elements)
+            for other in held[key][:held[key].index(ps)]:            # the cross terms with the part's pairs
+                _cross_terms(acc[key], normals, ps, other)
+            if last[key] == i:                                         # the side's last pair: its term
+                term = on.hF * acc[key] / data[k][0]
+                np.add.at(eta2[k], cell, term)
+                parts["contact traction"] += float(term.sum())
             owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
@@ -367,6 +411,119 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
-            cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            first = pr["sides"][0]
+            if len(held[first.key]) == 1:
+                cone, slides = slip.friction_elements(fr, elements, N, areaS[:, None] * wq[None, :])
+            else:
+                cone, slides = _shared_friction(first, held[first.key], len(elements), len(wq))
             terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)
+
+
+def _pair_fields3d(sol, i, cache, bodies) -> dict:
+    """Pair ``i`` of a 3D ``sol`` as the contact terms read it: its line ``itf``, the elements of X_h
+    (``elements``, ``corners``, ``hosts``: :meth:`elements`), g - [u_nu] (``open``) and lambda_h (``lam``) at their
+    nodes (last: 0), a friction law's ``fr`` (or None) and a :class:`_PairSide` per side (``sides``)."""
+    c, itf = sol.contacts[i], sol._pair_line(i)
+    elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
+    gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
+    open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]              # g - [u_nu] at their nodes
+    first = getattr(itf.traces[0], "linear", itf.traces[0])              # P2: its P1 trace (the same faces)
+    k0 = next(j for j, b in enumerate(bodies) if b is first.body)
+    lam = np.append(cache[k0].multiplier(c, first.part), 0.0)
+    fr = slip.friction_of(sol, i)                                      # a friction law's t_h, else None
+    nodal = {"lam": lam}
+    if fr is not None:
+        fr = cache[k0].friction(fr, c, first.part)
+        frames = row_frames(itf)
+        nodal.update(t=slip.nodal_vectors(fr.t, frames), s=slip.nodal_vectors(fr.s, frames),
+                     r=slip.nodal_vectors(fr.r, frames), g=np.append(np.asarray(fr.g, dtype=float), 0.0))
+    sides = []
+    for side, trace in enumerate(itf.traces):
+        linear = getattr(trace, "linear", trace)                      # P2: its P1 trace (the same faces)
+        k = next(j for j, b in enumerate(bodies) if b is linear.body)
+        sign = 1 - 2 * side                                            # the first body's t_h, the other's -t_h
+        signed = {name: sign * v if name in _SIGNED else v for name, v in nodal.items()}
+        sides.append(_PairSide((k, linear.part), linear, sign, elements, corners, signed))
+    return {"itf": itf, "elements": elements, "corners": corners, "hosts": hosts, "open": open_, "lam": lam,
+            "fr": fr, "sides": sides}
+
+
+_SIGNED = ("t", "s", "r")
+"""The tangential fields a pair's second body reads with the opposite sign (t_h, the slip, t_r)."""
+
+
+class _PairSide:
+    """What one pair puts on one side ``key`` (body k, contact part): its P1 ``trace`` there, the ``sign`` of its
+    tangential fields there (the first body +1, the second -1), the elements of X_h (nodes ``elements``
+    (e, 3 | 6), -1 outside; in-plane ``corners`` (e, 3, 2) m) and the ``nodal`` values at the nodes of X_h (last
+    row 0): lambda_h "lam" (Pa), a friction law's t_h, the slip and t_r as vectors "t", "s", "r" (times
+    ``sign``) and g_h "g"; after :meth:`points`, its rule's points on the side."""
+
+    def __init__(self, key, trace, sign, elements, corners, nodal):
+        self.key, self.trace, self.sign = key, trace, sign
+        self.elements, self.corners, self.nodal = elements, corners, nodal
+
+    def points(self, face, Lf, fq, w, ok, N, live):
+        """Keep the rule's points on the live elements of X_h ``live`` (e, 3 | 6) (shape values ``N``
+        (q, 3 | 6)): the trace's faces ``face`` (-1: none) and barycentric coordinates ``Lf`` (e q, 3) there, the
+        weights ``w`` (e q,) m^2, the side's faces ``fq`` of those in ``ok``."""
+        self.all_face, self.all_Lf, self.all_w, self.rule = face, Lf, w, (N, live)
+        self.face, self.Lf, self.fq, self.w = face[ok], Lf[ok], fq, w[ok]
+
+    def read(self, face, Lf) -> tuple[np.ndarray, np.ndarray]:
+        """(shape values (p, 3 | 6), nodes of X_h (p, 3 | 6), -1 beyond its elements) at the points of
+        barycentric coordinates ``Lf`` (p, 3) on the faces ``face`` (p,) of its trace (-1: none)."""
+        faces = np.asarray(self.trace.faces)[np.maximum(face, 0)][:, :3]
+        x = np.einsum("pv,pvd->pd", Lf, np.asarray(self.trace.x)[faces])
+        S, L = locate(x, self.corners.reshape(-1, 2), np.arange(3 * len(self.corners)).reshape(-1, 3))
+        inside = (S >= 0) & (face >= 0)
+        N = L if self.elements.shape[1] == 3 else shape_functions(L)
+        return N, np.where(inside[:, None], self.elements[np.maximum(S, 0)], -1)
+
+    def value(self, name, N, nodes) -> np.ndarray:
+        """(p, ...) the nodal field ``name`` at points read by :meth:`read`."""
+        return np.einsum("pk,pk...->p...", N, self.nodal[name][nodes])
+
+    def traction(self, face, Lf, normals) -> np.ndarray:
+        """(p, 3) lambda_h n - t_h (Pa) at points of barycentric coordinates ``Lf`` on the faces ``face`` of its
+        trace (``normals`` (p, 3) the side's there); 0 beyond its elements."""
+        N, nodes = self.read(face, Lf)
+        out = self.value("lam", N, nodes)[:, None] * normals
+        return out - self.value("t", N, nodes) if "t" in self.nodal else out
+
+
+def _cross_terms(acc, normals, a, b):
+    """Add to ``acc`` (k,) of the side's faces the cross terms 2 int_F (lambda_a n - t_a) . (lambda_b n - t_b) of
+    two pairs :class:`_PairSide` ``a``, ``b`` on one side, by the rule on the elements of the pair with more
+    points there, the other's function read at those points: exact where each element of the one lies in one
+    element of the other or outside them all (obstacles: the faces themselves; disjoint supports: 0)."""
+    if len(b.w) > len(a.w):
+        a, b = b, a
+    n = normals[a.fq]
+    np.add.at(acc, a.fq, 2 * a.w * (a.traction(a.face, a.Lf, n) * b.traction(a.face, a.Lf, n)).sum(axis=1))
+
+
+def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
+    """3D: the friction cone and slip complementarity integrals (as
+    :func:`~cvxcontact.solution.slipestimate.friction_elements`) on the e live elements of X_h (q rule points
+    each) of the pair whose first side is the :class:`_PairSide` ``mine``, of t_h, g_h, the slip and t_r summed
+    over the pairs ``held`` that share that side (its own included), each point weighed 1 / (the number of those
+    pairs whose elements hold it): the union of their supports counted once (obstacles each reaching part of
+    the part: the law of the whole part)."""
+    fields = {name: 0.0 for name in "tgsr"}
+    count = np.zeros(len(mine.all_face))
+    for ps in held:
+        if "t" not in ps.nodal:                                      # a frictionless pair: no t_h, no slip law
+            continue
+        if ps is mine:                                              # its own points: the rule on its elements
+            N, live = mine.rule
+            N, nodes = np.tile(N, (len(live), 1)), np.repeat(live, len(N), axis=0)
+        else:
+            N, nodes = ps.read(mine.all_face, mine.all_Lf)
+        count += (nodes >= 0).any(axis=1)
+        for name in fields:
+            fields[name] = fields[name] + ps.value(name, N, nodes)
+    cone, slides = slip.friction_points(fields["t"], fields["g"], fields["s"], fields["r"])
+    w = (mine.all_w / np.maximum(count, 1)).reshape(e, q)
+    return (w * cone.reshape(e, q)).sum(axis=1), (w * slides.reshape(e, q)).sum(axis=1)

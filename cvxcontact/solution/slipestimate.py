@@ -43,7 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Friction", "friction_elements", "friction_of", "friction_segments", "tangential_vectors"]
+__all__ = ["Friction", "friction_elements", "friction_of", "friction_points", "friction_segments",
+           "nodal_vectors", "tangential_vectors"]
 
 
 @dataclass(frozen=True)
@@ -91,9 +92,23 @@ def tangential_vectors(f: Friction | None, frames, elements, N) -> tuple[np.ndar
     at the rule's points of shape values ``N`` (q, 3 | 6)); None without a friction law (``f`` None)."""
     if f is None:
         return None
-    fr = np.asarray(frames, dtype=float)
-    nodal = np.concatenate([f.t[:, :1] * fr[0] + f.t[:, 1:] * fr[1], np.zeros((1, 3))])[elements]     # (e, k, 3)
+    nodal = nodal_vectors(f.t, frames)[elements]                                             # (e, k, 3)
     return (nodal != 0).any(axis=(1, 2)), np.einsum("qk,ek...->eq...", N, nodal)
+
+
+def nodal_vectors(values, frames) -> np.ndarray:
+    """3D: (n + 1, 3) the tangential ``values`` (n, 2) at the n nodes of X_h (t_h, t_r, the slip) as vectors
+    along the rows' ``frames`` (as :func:`tangential_vectors`), and a last row of zeros (index -1: outside X_h)."""
+    fr = np.asarray(frames, dtype=float)
+    v = np.asarray(values, dtype=float)
+    return np.concatenate([v[:, :1] * fr[0] + v[:, 1:] * fr[1], np.zeros((1, 3))])
+
+
+def friction_points(t, g, s, r) -> tuple[np.ndarray, np.ndarray]:
+    """3D: the integrands ((|t_h| - g_h)^+)^2 (Pa^2) and (g_h |[u_ht]| + t_r . [u_ht])^+ (Pa m) of
+    :func:`friction_elements` at points, from vectors ``t``, ``s``, ``r`` (p, 3) and ``g`` (p,)."""
+    cone = np.maximum(np.linalg.norm(t, axis=1) - g, 0.0) ** 2
+    return cone, np.maximum(g * np.linalg.norm(s, axis=1) + (r * s).sum(axis=1), 0.0)
 
 
 def friction_elements(f: Friction, elements, N, weights) -> tuple[np.ndarray, np.ndarray]:

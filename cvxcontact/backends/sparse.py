@@ -39,10 +39,10 @@ again (its scaling and matching are taken from the first matrix analysed, which 
 thin_layer(1000) from the coarse start, 124 perturbed pivots and a failed check on its second set; analysed
 afresh, the steps go on to the answer). Steps that stop (a cycle, a system failing its check) on the
 state an earlier solve left, the base and PARDISO's analysis, are retried from a fresh factorisation and analysis:
-the path of a new object (:meth:`SparseContact._attempts`). The answer is taken from a factor of K(A) for the final set A itself
-(under the timed cap: which base the steps end on follows the clock); where the steps on the columns (below) end
-on a set whose signs hold, that set is factorised as its own system at once (:meth:`SparseContact._last`), not
-solved through the base first.
+the path of a new object (:meth:`SparseContact._attempts`). The answer is taken from a factor of K(A) for the
+final set A itself (under the timed cap: which base the steps end on follows the clock); where the steps on the
+columns (below) end on a set whose signs hold, that set is factorised as its own system at once
+(:meth:`SparseContact._last`), not solved through the base first.
 
 Near the answer the steps flip a few rows at a time (on a long interface between non-matching meshes, rows whose
 force and gap are both tiny beside their scales: thin_layer(3000) took 7 steps of 1-19 rows after its last
@@ -621,8 +621,8 @@ class SparseContact:
     def coarse_start(self, F, g, free=None):
         """A start set for :meth:`solve`'s steps on a long interface, from the answer of a coarse subproblem.
 
-        The coarse rows: a maximal independent set of the free rows' graph to :data:`~.coarse.COARSE_HOPS` hops (no two
-        within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
+        The coarse rows: a maximal independent set of the free rows' graph to :data:`~.coarse.COARSE_HOPS` hops (no
+        two within as many shared dofs of each other: about one row in ten on thin_layer). Their problem (26)-(27)
         alone (every other row left out) is solved on its dense Schur complement, the coarse rows' compliance
         W_c = G_c S^{-1} G_c^T (c x c, one partial factorisation of [[S, G_c^T], [G_c, 0]] with the coarse rows as
         its Schur block, :func:`~cvxcontact.backends.factor.factorize`, freed at once), as the LCP y >= 0,

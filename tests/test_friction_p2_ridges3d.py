@@ -274,8 +274,9 @@ def test_the_normal_forces_are_a_non_negative_measure_on_the_zero_set(name, shar
 
 
 def test_the_sign_relations_are_solved_for_all_ridges_at_once():
-    """:func:`cvxcontact.backends.ridges._flips` on the pattern met on the box under Coulomb: three ridges, each with
-    a product of relations -1, around two vertices (9, 12) where w is 0 (their edges free). Flipping each triangle's
+    """:func:`cvxcontact.backends.ridges._flips` on the pattern met on the box under Coulomb, reduced to the three
+    ridges the lightest flips were asked of: each with a product of relations -1, around two vertices (9, 12) where
+    w is 0 (their edges free). Flipping each triangle's
     lightest relation in turn, the third flip ((8, 12)) undoes the second's; the flips returned make every product
     +1 and touch free edges only. Where the free edges cannot (a triangle with none, or two triangles asking opposite
     flips of their one shared free edge) None."""

@@ -30,7 +30,7 @@ from scenes3d import sphere_into_block
 
 import cvxcontact as cc
 from cvxcontact.backends import friction, frictiontangency
-from cvxcontact.backends.finish import Declined
+from cvxcontact.backends.finish import Declined, Stop
 
 P2 = {"condition": "gamma3", "degree": 2, "estimate": False}
 
@@ -47,9 +47,9 @@ def solve(scene, tol=None, polish=True):
     if tol is not None:
         friction.CONE_ROUNDING = tol
 
-    def spy(*args):
-        out = kept(*args) if polish else None
-        seen.append(out is not None and not isinstance(out, Declined))
+    def spy(*args):                     # polish off: a decline, so the cuts' answer is kept (frictiontangency.kept)
+        out = kept(*args) if polish else Declined(Stop.NOT_POSED, "the polish is off")
+        seen.append(not isinstance(out, Declined))
         return out
 
     frictiontangency._polish = spy

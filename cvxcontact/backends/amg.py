@@ -315,8 +315,8 @@ def v_cycle(ml) -> spla.LinearOperator:
     ``ml.aspreconditioner(cycle="V")`` (pyamg's cycle: pre-smoothing, the coarse correction of the restricted
     residual, post-smoothing, level by level), without the two residual norms ||b - A x|| of the finest level
     that pyamg's ``solve`` computes around its one cycle (its stopping test, read by no preconditioner): two
-    finest-level products per application, 9 % of a two_boxes "sigma1" solve at 1.5e5 unknowns (CPU profile,
-    benchmarks/results/bench3d_scale.md)."""
+    finest-level products per application: 13.7-14.5 % of a displacement V-cycle's CPU seconds at 1.5e5 unknowns,
+    11-14 % of a two_boxes "sigma1" solve's at 1.5e5 and 4.1e5 (benchmarks/results/bench3d_scale.md)."""
     levels, coarse = ml.levels, ml.coarse_solver
 
     def cycle(lvl, x, b):

@@ -74,13 +74,16 @@ RTOL = 1e-10
 tied elastic boxes at 1e5 unknowns the true residual of CG stalled above it (rounding), and the route handed over
 to the sparse one."""
 
-STEP_RTOLS = (1e-1, 1e-2, 1e-4)
+STEP_RTOLS = (1e-1, 1e-2, 1e-4, 1e-6)
 """Relative residuals of the Krylov solves that only pick the next active set, loosest first: a step solves its
 system to the first and tightens to the next only while the signs hold, and to RTOL last, so that a set still
 changing costs a few iterations and only the last set is solved to RTOL (the signs are checked there before the
 set is accepted; the solves of one set continue from each other). Measured on two elastic boxes (P1, 1.0e5
 unknowns, 1369 rows, the same 6 sets and answer): 123 CG iterations in all with one loose stage 1e-4, 68 with
-(1e-1, 1e-3), 79 with (1e-2, 1e-4), 61 with these three stages."""
+(1e-1, 1e-3), 79 with (1e-2, 1e-4), 61 with (1e-1, 1e-2, 1e-4). The stage 1e-6: on two_boxes "sigma1" at 8.2e5
+unknowns a set passed its signs at 1e-4 and failed them (2 rows) only at RTOL, after 43 iterations, the next set
+then 27 more; with 1e-6 the failure shows after 15 and the steps take 103 Krylov iterations against 127 (11 sets,
+the same final set), at 1.5e5 71 against 70 (benchmarks/results/bench3d_scale.md)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 

@@ -67,20 +67,23 @@ from .finish import Declined, Stop, active_set_steps, signs_hold
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP", "Reduced"]
+           "LOOSE_KEEP", "Reduced", "v_cycle"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
 tied elastic boxes at 1e5 unknowns the true residual of CG stalled above it (rounding), and the route handed over
 to the sparse one."""
 
-STEP_RTOLS = (1e-1, 1e-2, 1e-4)
+STEP_RTOLS = (1e-1, 1e-2, 1e-4, 1e-6)
 """Relative residuals of the Krylov solves that only pick the next active set, loosest first: a step solves its
 system to the first and tightens to the next only while the signs hold, and to RTOL last, so that a set still
 changing costs a few iterations and only the last set is solved to RTOL (the signs are checked there before the
 set is accepted; the solves of one set continue from each other). Measured on two elastic boxes (P1, 1.0e5
 unknowns, 1369 rows, the same 6 sets and answer): 123 CG iterations in all with one loose stage 1e-4, 68 with
-(1e-1, 1e-3), 79 with (1e-2, 1e-4), 61 with these three stages."""
+(1e-1, 1e-3), 79 with (1e-2, 1e-4), 61 with (1e-1, 1e-2, 1e-4). The stage 1e-6: on two_boxes "sigma1" at 8.2e5
+unknowns a set passed its signs at 1e-4 and failed them (2 rows) only at RTOL, after 43 iterations, the next set
+then 27 more; with 1e-6 the failure shows after 15 and the steps take 103 Krylov iterations against 127 (11 sets,
+the same final set), at 1.5e5 71 against 70 (benchmarks/results/bench3d_scale.md)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
@@ -309,6 +312,39 @@ def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
 
 
 
+def v_cycle(ml) -> spla.LinearOperator:
+    """One V-cycle of the hierarchy ``ml`` (a pyamg multilevel solver: its ``levels``, each with ``A``, ``R``,
+    ``P`` and smoothers, and ``coarse_solver``) from a zero guess, as an operator: the arrays of
+    ``ml.aspreconditioner(cycle="V")`` (pyamg's cycle: pre-smoothing, the coarse correction of the restricted
+    residual, post-smoothing, level by level), without the two residual norms ||b - A x|| of the finest level
+    that pyamg's ``solve`` computes around its one cycle (its stopping test, read by no preconditioner): two
+    finest-level products per application: 13.7-14.5 % of a displacement V-cycle's CPU seconds at 1.5e5 unknowns,
+    11-14 % of a two_boxes "sigma1" solve's at 1.5e5 and 4.1e5 (benchmarks/results/bench3d_scale.md)."""
+    levels, coarse = ml.levels, ml.coarse_solver
+
+    def cycle(lvl, x, b):
+        A = levels[lvl].A
+        levels[lvl].presmoother(A, x, b)
+        coarse_b = levels[lvl].R @ (b - A @ x)
+        coarse_x = np.zeros_like(coarse_b)
+        if lvl == len(levels) - 2:
+            coarse_x[:] = coarse(levels[-1].A, coarse_b)
+        else:
+            cycle(lvl + 1, coarse_x, coarse_b)
+        x += levels[lvl].P @ coarse_x
+        levels[lvl].postsmoother(A, x, b)
+
+    def apply(b):
+        b = np.ravel(b)
+        if len(levels) == 1:
+            return coarse(levels[0].A, b)
+        x = np.zeros_like(b)
+        cycle(0, x, b)
+        return x
+
+    return spla.LinearOperator(levels[0].A.shape, matvec=apply, dtype=levels[0].A.dtype)
+
+
 @contextmanager
 def _seeded(seed: int = 0):
     """NumPy's global random state seeded for the block (and restored after it): pyamg starts its spectral-radius
@@ -449,7 +485,7 @@ class KrylovContact:
         rows = K.rows(self.u_idx[I])[:, self.u_idx].tocsr()             # A[I, :]
         lu = spla.splu(rows[:, I].tocsc())
         cols = rows.T.tocsr()                                          # A[:, I]
-        V = self.ml_u.aspreconditioner(cycle="V")
+        V = v_cycle(self.ml_u)
 
         def apply(r):
             z = np.zeros_like(r)
@@ -473,7 +509,7 @@ class KrylovContact:
                 z[self.u_idx] = Pu(r[self.u_idx])
                 return z
         else:
-            Pp = self.ml_p.aspreconditioner(cycle="V")
+            Pp = v_cycle(self.ml_p)
             Kup = K.coupling(self.u_idx, self.p_idx)
 
             def apply(r):

@@ -527,8 +527,7 @@ def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
         else:
             N, nodes = ps.read(mine.all_face, mine.all_Lf)
         count += (nodes >= 0).any(axis=1)
-        for name in fields:
-            fields[name] = fields[name] + ps.value(name, N, nodes)
+        fields = {name: v + ps.value(name, N, nodes) for name, v in fields.items()}
     cone, slides = slip.friction_points(fields["t"], fields["g"], fields["s"], fields["r"])
     w = (mine.all_w / np.maximum(count, 1)).reshape(e, q)
     return (w * cone.reshape(e, q)).sum(axis=1), (w * slides.reshape(e, q)).sum(axis=1)

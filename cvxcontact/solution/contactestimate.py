@@ -497,11 +497,16 @@ def _cross_terms(acc, normals, a, b):
     """Add to ``acc`` (k,) of the side's faces the cross terms 2 int_F (lambda_a n - t_a) . (lambda_b n - t_b) of
     two pairs :class:`_PairSide` ``a``, ``b`` on one side, by the rule on the elements of the pair with more
     points there, the other's function read at those points: exact where each element of the one lies in one
-    element of the other or outside them all (obstacles: the faces themselves; disjoint supports: 0)."""
+    element of the other or outside them all (obstacles: the faces themselves; disjoint supports: 0). Read only
+    on the faces that hold points of both (the other's live elements each lie in one of its faces ``fq``, its
+    function 0 elsewhere): the pairs of a part's many pairs that do not meet cost nothing."""
     if len(b.w) > len(a.w):
         a, b = b, a
-    n = normals[a.fq]
-    np.add.at(acc, a.fq, 2 * a.w * (a.traction(a.face, a.Lf, n) * b.traction(a.face, a.Lf, n)).sum(axis=1))
+    keep = np.flatnonzero(np.isin(a.fq, b.fq))
+    if not len(keep):
+        return
+    fq, face, Lf, n = a.fq[keep], a.face[keep], a.Lf[keep], normals[a.fq[keep]]
+    np.add.at(acc, fq, 2 * a.w[keep] * (a.traction(face, Lf, n) * b.traction(face, Lf, n)).sum(axis=1))
 
 
 def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
@@ -522,8 +527,7 @@ def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
         else:
             N, nodes = ps.read(mine.all_face, mine.all_Lf)
         count += (nodes >= 0).any(axis=1)
-        for name in fields:
-            fields[name] = fields[name] + ps.value(name, N, nodes)
+        fields = {name: v + ps.value(name, N, nodes) for name, v in fields.items()}
     cone, slides = slip.friction_points(fields["t"], fields["g"], fields["s"], fields["r"])
     w = (mine.all_w / np.maximum(count, 1)).reshape(e, q)
     return (w * cone.reshape(e, q)).sum(axis=1), (w * slides.reshape(e, q)).sum(axis=1)

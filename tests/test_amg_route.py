@@ -525,10 +525,22 @@ def test_v_cycle_is_pyamgs_preconditioner_without_its_residual_norms(monkeypatch
     kc = solver.cache.amg
     rng = np.random.default_rng(3)
     for ml in (kc.ml_u, kc.ml_p):
-        assert len(ml.levels) >= 2                                       # measured 3 (u) and 2 (phi)
+        assert len(ml.levels) >= 2                                       # measured 2 (u) and 2 (phi)
         for _ in range(3):
             b = rng.standard_normal(ml.levels[0].A.shape[0])
             assert np.array_equal(amg.v_cycle(ml) @ b, ml.aspreconditioner(cycle="V") @ b)
+    # the route's hierarchies here have two levels, which never recurse: the same blocks with deeper and
+    # one-level hierarchies (the cycle's recursion, pyamg's one-level branch), and a float32 right-hand side
+    # (pyamg's solve casts it to the operator's dtype)
+    import pyamg
+
+    for A, coarse in ((kc.ml_u.levels[0].A, 5), (kc.ml_p.levels[0].A, 5), (kc.ml_p.levels[0].A, 10 ** 6)):
+        ml = pyamg.smoothed_aggregation_solver(A, symmetry="symmetric", max_coarse=coarse)
+        assert len(ml.levels) == (1 if coarse > A.shape[0] else 3) or len(ml.levels) > 3   # measured 3, 3, 1
+        b = rng.standard_normal(A.shape[0])
+        assert np.array_equal(amg.v_cycle(ml) @ b, ml.aspreconditioner(cycle="V") @ b)
+        b32 = b.astype(np.float32)
+        assert np.array_equal(amg.v_cycle(ml) @ b32, ml.aspreconditioner(cycle="V") @ b32)
     monkeypatch.setattr(amg, "v_cycle", lambda ml: ml.aspreconditioner(cycle="V"))
     plain_solver = cc.ContactSolver(two_boxes(8), method="amg")
     plain = plain_solver.solve()

@@ -335,7 +335,7 @@ def v_cycle(ml) -> spla.LinearOperator:
         levels[lvl].postsmoother(A, x, b)
 
     def apply(b):
-        b = np.ravel(b)
+        b = np.ravel(np.asarray(b, dtype=np.result_type(b, levels[0].A.dtype)))   # as pyamg's solve: upcast
         if len(levels) == 1:
             return coarse(levels[0].A, b)
         x = np.zeros_like(b)

@@ -33,7 +33,7 @@ def test_amg_route_agrees_with_the_sparse_route(make, n):
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert a.info.factorization == "pyamg"
     assert 0 < np.sum(a.contact.active)
-    fields_agree(a, b, 3e-8)                 # measured: sphere 8.4e-12, boxes 2.0e-10 (5 kernel sets; Krylov to 1e-10)
+    fields_agree(a, b, 3e-8)                 # measured: sphere 8.4e-12, boxes 2.0e-10 (5 kernels; Krylov to 1e-10)
     assert a.residuals()["equilibrium"] < 1e-10                   # measured 3.4e-12, 7.6e-12
 
 
@@ -200,7 +200,7 @@ def test_amg_route_keeps_driven_and_floating_electrodes():
     b = cc.solve(scene, method="sparse")
     assert a.ok and b.ok and a.info.method == "amg" and a.info.route == Route.KRYLOV_ACTIVE_SET
     assert 0 < np.sum(a.contact.active) < len(a.contact.active)                  # measured 42 of 213
-    fields_agree(a, b, 3e-8)             # measured 2.5e-10 (5 kernel sets; 1.5e-10 before STEP_RTOLS' 1e-6; Krylov to 1e-10)
+    fields_agree(a, b, 3e-8)                 # measured 2.5e-10 (5 kernels; 1.5e-10 before the 1e-6 stage)
     assert [(e.tag, e.kind) for e in a.electrodes] == [("right", "driven"), ("left", "floating")]
     # the route's answer is a Krylov solve to a relative residual of 1e-10 (amg.RTOL), which a floating
     # electrode's potential sees through the conditioning: measured 8.9e-11 and 2.0e-9 in two runs (the

@@ -381,7 +381,7 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.amg import v_cycle    # the route's V-cycle (the same bits, fewer norms)
+    from cvxcontact.backends.amg import v_cycle
 
     n = A.shape[0]
     t0, c0 = time.perf_counter(), time.process_time()

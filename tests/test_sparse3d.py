@@ -95,7 +95,7 @@ def test_bench_amg_yardstick_runs_the_routes_v_cycle(scene, request, monkeypatch
     z = spla.spsolve(K.tocsc(), rhs)
     out = b.amg_bonded(p, A, G, rhs, sizes)
     assert out is not None and out[2] > 0
-    assert rel(out[1], z[:A.shape[0]]) < 1e-6                    # measured 1.9e-10, 1.3e-10 (5 kernel sets; Krylov to 1e-10)
+    assert rel(out[1], z[:A.shape[0]]) < 1e-6              # measured 1.9e-10, 1.3e-10 (5 kernels; Krylov to 1e-10)
 
 
 def test_bench_elimination_refuses_rows_sharing_their_dofs():

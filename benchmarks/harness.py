@@ -374,10 +374,14 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
 
     The eliminated dofs keep their place as decoupled identity rows (zero right-hand side), so that every
     node keeps its three displacement dofs and the u block is handed to pyamg node-blocked (BSR 3 x 3: node
-    aggregates; dof-wise aggregation was measured 10x slower); their rows of the near-null space are zero."""
+    aggregates; dof-wise aggregation was measured 10x slower); their rows of the near-null space are zero. The
+    V-cycles are the route's (``amg.v_cycle``: pyamg's ``aspreconditioner(cycle="V")`` without its two
+    finest-level residual norms, the same bits), so that the route and its yardstick run the same cycle."""
     import pyamg
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.amg import v_cycle
 
     n = A.shape[0]
     t0, c0 = time.perf_counter(), time.process_time()
@@ -413,12 +417,12 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
     its = []
     cb = lambda _x=None: its.append(1)  # noqa: E731
     if len(p_idx) == 0:
-        x_r, info = spla.cg(Kr, br, M=ml_u.aspreconditioner(cycle="V"), rtol=tol, atol=0.0, maxiter=2000,
+        x_r, info = spla.cg(Kr, br, M=v_cycle(ml_u), rtol=tol, atol=0.0, maxiter=2000,
                             callback=cb)
     else:
         Kpp = -Kr[p_idx][:, p_idx].tocsr()                       # the Gauss rows were negated (quasi-definite)
         ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=500)
-        Pu, Pp = ml_u.aspreconditioner(cycle="V"), ml_p.aspreconditioner(cycle="V")
+        Pu, Pp = v_cycle(ml_u), v_cycle(ml_p)
 
         Kup = Kr[u_idx][:, p_idx].tocsr()
 

@@ -83,7 +83,10 @@ unknowns, 1369 rows, the same 6 sets and answer): 123 CG iterations in all with 
 (1e-1, 1e-3), 79 with (1e-2, 1e-4), 61 with (1e-1, 1e-2, 1e-4). The stage 1e-6: on two_boxes "sigma1" at 8.2e5
 unknowns a set passed its signs at 1e-4 and failed them (2 rows) only at RTOL, after 43 iterations, the next set
 then 27 more; with 1e-6 the failure shows after 15 and the steps take 103 Krylov iterations against 127 (11 sets,
-the same final set), at 1.5e5 71 against 70 (benchmarks/results/bench3d_scale.md)."""
+the same final set), at 1.5e5 71 against 70 (benchmarks/results/bench3d_scale.md). Where the last set's signs
+already hold at 1e-4 it saves nothing and costs a restart: tests/scenes3d.py two_boxes (2.0e4-8.1e4 unknowns)
+48 -> 50, 58 -> 61, 62 -> 63 iterations, two_boxes(elastic=True) (2.0e4-9.4e4) 27 -> 28, 35 -> 37, 40 -> 42, the
+same sets and answers to 2e-10 (the review of h-sigfast)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
@@ -335,7 +338,7 @@ def v_cycle(ml) -> spla.LinearOperator:
         levels[lvl].postsmoother(A, x, b)
 
     def apply(b):
-        b = np.ravel(b)
+        b = np.ravel(np.asarray(b, dtype=np.result_type(b, levels[0].A.dtype)))   # as pyamg's solve: upcast
         if len(levels) == 1:
             return coarse(levels[0].A, b)
         x = np.zeros_like(b)

@@ -24,6 +24,7 @@ from friction_scenes import E as E3
 
 import cvxcontact as cc
 from cvxcontact.apps.studies.convergence_hencky import plastic_zone
+from cvxcontact.backends.finish import Declined, Stop
 
 pytestmark = [pytest.mark.numerics,       # the sphere's contact zone is spanned by 3 faces (a coarse mesh)
               pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]
@@ -252,7 +253,7 @@ def test_undamped_sequential_steps_on_the_indented_block_decline_flagged(monkeyp
     from cvxcontact.backends import frictionsteps, frictiontangency
 
     monkeypatch.setattr(frictionsteps, "_damping", lambda *args: 1.0)
-    monkeypatch.setattr(frictiontangency, "_polish", lambda *args: None)
+    monkeypatch.setattr(frictiontangency, "_polish", lambda *args: Declined(Stop.NOT_POSED, "turned off"))
     with pytest.warns(cc.ResidualWarning):
         sol = cc.solve(indented_block(cc.Tresca(1e-6)), **P2)
     assert not sol.polished and "sequential quadratic steps" in str(sol.info.declined), sol.info.declined
@@ -327,7 +328,7 @@ def test_no_descent_above_the_tolerance_declines_flagged(monkeypatch):
     from cvxcontact.backends import frictionsteps, frictiontangency
 
     monkeypatch.setattr(frictionsteps, "SMALLEST_STEP", 1.0)
-    monkeypatch.setattr(frictiontangency, "_polish", lambda *args: None)
+    monkeypatch.setattr(frictiontangency, "_polish", lambda *args: Declined(Stop.NOT_POSED, "turned off"))
     with pytest.warns(cc.ResidualWarning):
         sol = cc.solve(indented_block(cc.Tresca(1e-6)), **P2)
     assert not sol.ok and not sol.polished and "no descent" in str(sol.info.declined), sol.info.declined

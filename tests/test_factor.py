@@ -361,7 +361,7 @@ def test_condensed_superlu_on_a_slender_layer_equals_the_full_route(slender):
     (default kernels, Haswell, Nehalem, Prescott, Sandybridge): u at most 7.1e-14, phi 9.1e-14 (both Haswell);
     before the backward sweep was split into triangular sweeps of the leading blocks (it subtracted
     S^{-1} [0; Sigma (x0_G - v)] from x0 = S^{-1} b): u 7.5e-10 (Haswell 2.9e-10), phi 2.5e-11 (1.3e-11)."""
-    solver, sol, full = slender
+    _, sol, full = slender
     assert sol.info.method == "condensed" and sol.info.factorization == "superlu"
     assert rel(np.concatenate([np.ravel(u) for u in sol.u]), np.concatenate([np.ravel(u) for u in full.u])) < 1e-11
     phi, phi_full = ([np.ravel(p) for p in s.phi if p is not None] for s in (sol, full))

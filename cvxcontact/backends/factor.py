@@ -13,8 +13,9 @@ and full solves x = S^{-1} b. :func:`factorize` gives both through one adapter:
 
 ``superlu``  SciPy's SuperLU without pivoting in symmetric mode, on a minimum-degree node order with the
              Gamma dofs last; Sigma is the trailing m x m block of L U (a symmetric quasi-definite matrix
-             has an LDL^T factorisation in every symmetric order, so no pivoting is needed). SciPy only
-             hands out L and U as whole copies, which costs about a quarter of the factorisation time.
+             has an LDL^T factorisation in every symmetric order, so no pivoting is needed). L and U are kept
+             (each as a SuperLU object of its own) for partial sweeps as PARDISO's below: forward z = L^{-1} b,
+             r = L22 z_G; backward x_I = U11^{-1} L11^{-1} (b_I - S_IG v) (:class:`SuperLUFactorization`).
 ``pardiso``  Intel oneMKL PARDISO through ctypes on ``libmkl_rt`` (the optional extra
              ``pip install "cvxcontact[pardiso]"``, x86-64): real symmetric indefinite (mtype -2), its own
              nested-dissection order for I, the Gamma dofs marked as Schur rows (iparm[35]); the
@@ -241,22 +242,15 @@ class Factorization:
 
 
 class SuperLUFactorization(Factorization):
-    """SuperLU on ``order`` (a permutation of the dofs with the Gamma dofs last, in ``gamma`` order), kept as its
-    two triangular factors for partial sweeps, as PARDISO's (module docstring).
-
-    With A = S[order][:, order] = Pr^T L U Pc^T (SuperLU's row and column permutations, which keep the Gamma
-    block last; checked) and A' = Pr A Pc = L U split after the k = n - m interior rows,
-
-        forward:   z = L^{-1} b',  r' = L22 z_G             (b' = Pr b; r' = b'_G - A'_GI A'_II^{-1} b'_I)
-        backward:  y_I = U11^{-1} L11^{-1} (b'_I - A'_IG y_G),  y_G = Pc^T v,  x = Pc y,
-
-    each an exact triangular sweep of a leading block. The backward sweep never forms S^{-1} b: x0 = S^{-1} b less
-    S^{-1} [0; Sigma (x0_G - v)] (the sweep before) cancels where the Gamma dofs hold a slender body (measured,
-    ``thin_layer(400)``'s layer: |x0| = 1.4e3 |x|, its interior off by 1.65e-7 against a direct solve with S_II;
-    now 1.4e-14). L and U are each kept as a SuperLU object of its own (SuperLU of a triangular matrix with its
-    diagonal as pivots is that matrix: no arithmetic, no fill), so that their sweeps are SuperLU's compiled
-    triangular solves; with L22 and A'_IG this is about 1.05 x the memory of the one SuperLU object it replaces.
-    """
+    """SuperLU on ``order`` (a permutation of the dofs, the Gamma dofs last in ``gamma`` order), kept as its
+    factors L and U for partial sweeps. With A = S[order][:, order] = Pr^T L U Pc^T (SuperLU's permutations keep
+    the Gamma block last; checked) and A' = Pr A Pc = L U split after k = n - m interior rows: forward
+    z = L^{-1} b', r' = L22 z_G (b' = Pr b); backward y_I = U11^{-1} L11^{-1} (b'_I - A'_IG y_G), y_G = Pc^T v,
+    x = Pc y: exact triangular sweeps of leading blocks, where x0 - S^{-1} [0; Sigma (x0_G - v)], x0 = S^{-1} b,
+    cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I off by 1.65e-7 against a solve
+    with S_II; now 1.4e-14). L and U are each a SuperLU object of their own (a triangular matrix's, its diagonal
+    the pivots: itself, no fill): with L22 and A'_IG, 0.93 to 1.17 x the memory of the SuperLU object of S and
+    1.4 x its factorisation time (measured: thin_layer(400)'s bodies, two_boxes(14) in 3D)."""
 
     name = "superlu"
 
@@ -264,20 +258,18 @@ class SuperLUFactorization(Factorization):
         n, m = S.shape[0], len(gamma)
         if not np.array_equal(order[n - m:], gamma):
             raise SolverError("the superlu order must end with the Gamma dofs in their sorted order")
-        self.perm = order
+        self.perm, k = order, n - m
         A = S[order][:, order].tocsc()
         lu = spla.splu(A, **SUPERLU_OPTIONS)
-        k = n - m
         self._perm_r, self._perm_c = lu.perm_r, lu.perm_c
-        rows, cols = lu.perm_r[k:] - k, lu.perm_c[k:] - k
+        self._rows, self._cols = rows, cols = lu.perm_r[k:] - k, lu.perm_c[k:] - k
         if m and (rows.min() < 0 or cols.min() < 0):
             raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
                               "order; use method='full'")
-        self._rows, self._cols = rows, cols
         L, U = lu.L.tocsc(), lu.U.tocsc()        # (SciPy's copies; made for Sigma's trailing block anyway)
         del lu
-        tail = (L[k:, k:] @ U[k:, k:]).toarray() if m else np.zeros((0, 0))
         self._L22 = L[k:, k:].tocsr()
+        tail = (self._L22 @ U[k:, k:]).toarray() if m else np.zeros((0, 0))
         coo = A.tocoo()                          # A'_IG: A'[perm_r[i], perm_c[j]] = A[i, j]
         r, c = self._perm_r[coo.row], self._perm_c[coo.col]
         keep = (r < k) & (c >= k)
@@ -291,22 +283,19 @@ class SuperLUFactorization(Factorization):
 
     @property
     def memory(self):
-        if self._sweep_L is None:
-            return None
-        return 12 * int(self._sweep_L.nnz + self._sweep_U.nnz + self._L22.nnz + self._A_IG.nnz)
+        parts = (self._sweep_L, self._sweep_U, self._L22, self._A_IG)
+        return None if self._sweep_L is None else 12 * sum(int(x.nnz) for x in parts)
 
     def free(self):
         self._sweep_L = self._sweep_U = None
 
-    def _permuted(self, rhs):
-        """b' = Pr b[order] (b over the dofs; vector or columns)."""
+    def _permuted(self, rhs):                    # b' = Pr b[order] (a vector or columns)
         b = np.asarray(rhs, dtype=float)
         bp = np.empty_like(b)
         bp[self._perm_r] = b[self.perm]
         return bp
 
-    def _unpermuted(self, y):
-        """x over the dofs from y = Pc^T x[order]."""
+    def _unpermuted(self, y):                    # x over the dofs from y = Pc^T x[order]
         x = np.empty_like(y)
         x[self.perm] = y[self._perm_c]
         return x
@@ -316,9 +305,8 @@ class SuperLUFactorization(Factorization):
 
     def forward(self, rhs):
         bp = self._permuted(rhs)
-        k = self.n - len(self.gamma)
         z = self._sweep_L.solve(bp)
-        return Forward((self._L22 @ z[k:])[self._rows], bp)
+        return Forward((self._L22 @ z[self.n - len(self.gamma):])[self._rows], bp)
 
     def backward(self, fwd, v):
         bp, k = fwd.state, self.n - len(self.gamma)

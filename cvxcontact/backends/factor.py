@@ -248,7 +248,10 @@ class SuperLUFactorization(Factorization):
     z = L^{-1} b', r' = L22 z_G (b' = Pr b); backward y_I = U11^{-1} L11^{-1} (b'_I - A'_IG y_G), y_G = Pc^T v,
     x = Pc y: exact triangular sweeps of leading blocks, where x0 - S^{-1} [0; Sigma (x0_G - v)], x0 = S^{-1} b,
     cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I off by 1.65e-7 against a solve
-    with S_II; now 1.4e-14). L and U are each a SuperLU object of their own (a triangular matrix's, its diagonal
+    with S_II; now 1e-14). U is D L^T (D its diagonal; A' symmetric, as with SuperLU's permutations here): the
+    factors of one symmetric matrix, so that Sigma (symmetrised) and the sweeps agree (with SuperLU's own U, equal
+    to D L^T to rounding only, P2 "gamma3" on two_blocks((8, 4), (5, 3)) read a pressure 4.8e-11 off PARDISO's;
+    now 2.2e-14). L and U are each a SuperLU object of their own (a triangular matrix's, its diagonal
     the pivots: itself, no fill): with L22 and A'_IG, 0.93 to 1.17 x the memory of the SuperLU object of S and
     1.4 x its factorisation time (measured: thin_layer(400)'s bodies, two_boxes(14) in 3D)."""
 
@@ -267,7 +270,9 @@ class SuperLUFactorization(Factorization):
             raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
                               "order; use method='full'")
         L, U = lu.L.tocsc(), lu.U.tocsc()        # (SciPy's copies; made for Sigma's trailing block anyway)
-        del lu
+        if np.array_equal(lu.perm_r, lu.perm_c):  # A' symmetric: U = D L^T (LDL^T), so Sigma and the sweeps
+            U = (sp.diags(U.diagonal()) @ L.T).tocsc()        # are one symmetric matrix's (SuperLU's own U is D L^T
+        del lu                                                # to rounding only: L22 U22 is not symmetric)
         self._L22 = L[k:, k:].tocsr()
         tail = (self._L22 @ U[k:, k:]).toarray() if m else np.zeros((0, 0))
         coo = A.tocoo()                          # A'_IG: A'[perm_r[i], perm_c[j]] = A[i, j]

@@ -242,18 +242,17 @@ class Factorization:
 
 
 class SuperLUFactorization(Factorization):
-    """SuperLU on ``order`` (a permutation of the dofs, the Gamma dofs last in ``gamma`` order), kept as its
-    factors L and U for partial sweeps. With A = S[order][:, order] = Pr^T L U Pc^T (SuperLU's permutations keep
-    the Gamma block last; checked) and A' = Pr A Pc = L U split after k = n - m interior rows: forward
-    z = L^{-1} b', r' = L22 z_G (b' = Pr b); backward y_I = U11^{-1} L11^{-1} (b'_I - A'_IG y_G), y_G = Pc^T v,
-    x = Pc y: exact triangular sweeps of leading blocks, where x0 - S^{-1} [0; Sigma (x0_G - v)], x0 = S^{-1} b,
-    cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I off by 1.65e-7 against a solve
-    with S_II; now 1e-14). U is D L^T (D its diagonal; A' symmetric, as with SuperLU's permutations here): the
-    factors of one symmetric matrix, so that Sigma (symmetrised) and the sweeps agree (with SuperLU's own U, equal
-    to D L^T to rounding only, P2 "gamma3" on two_blocks((8, 4), (5, 3)) read a pressure 4.8e-11 off PARDISO's;
-    now 2.2e-14). L and U are each a SuperLU object of their own (a triangular matrix's, its diagonal
-    the pivots: itself, no fill): with L22 and A'_IG, 0.93 to 1.17 x the memory of the SuperLU object of S and
-    1.4 x its factorisation time (measured: thin_layer(400)'s bodies, two_boxes(14) in 3D)."""
+    """SuperLU on ``order`` (a permutation of the dofs, the Gamma dofs last in ``gamma`` order), kept as
+    A' = L D L^T for partial sweeps: A = S[order][:, order] = Pr^T L U Pc^T (SuperLU's permutations, the same for
+    rows and columns, keep the Gamma block last; checked), A' = Pr A Pc is symmetric, so U = D L^T to rounding and
+    L and D = diag(U) alone are kept (L as a SuperLU object of its own: a triangular matrix's, its diagonal the
+    pivots, is itself). Split after k = n - m interior rows: forward z = L^{-1} b', r' = L22 z_G (b' = Pr b);
+    backward L11^T y_I = D11^{-1} z_I - L21^T y_G, y_G = Pc^T v, x = Pc y; Sigma = L22 D22 L22^T: exact sweeps of
+    one symmetric matrix, as PARDISO's. The sweep before, x0 - S^{-1} [0; Sigma (x0_G - v)] with x0 = S^{-1} b,
+    cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I 1.65e-7 off a solve with S_II;
+    now 1e-14); with SuperLU's own U (D L^T to rounding only), Sigma and the sweeps disagreed (P2 "gamma3",
+    two_blocks((8, 4), (5, 3)): pressure 4.8e-11 off PARDISO's). Measured (thin_layer(400)'s bodies, two_boxes(14)
+    in 3D): 0.56 to 0.97 x the memory of SuperLU's L and U, 1.25 to 1.4 x the factorisation time."""
 
     name = "superlu"
 
@@ -269,30 +268,27 @@ class SuperLUFactorization(Factorization):
         if m and (rows.min() < 0 or cols.min() < 0):
             raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
                               "order; use method='full'")
-        L, U = lu.L.tocsc(), lu.U.tocsc()        # (SciPy's copies; made for Sigma's trailing block anyway)
-        if np.array_equal(lu.perm_r, lu.perm_c):  # A' symmetric: U = D L^T (LDL^T), so Sigma and the sweeps
-            U = (sp.diags(U.diagonal()) @ L.T).tocsc()        # are one symmetric matrix's (SuperLU's own U is D L^T
-        del lu                                                # to rounding only: L22 U22 is not symmetric)
-        self._L22 = L[k:, k:].tocsr()
-        tail = (self._L22 @ U[k:, k:]).toarray() if m else np.zeros((0, 0))
-        coo = A.tocoo()                          # A'_IG: A'[perm_r[i], perm_c[j]] = A[i, j]
-        r, c = self._perm_r[coo.row], self._perm_c[coo.col]
-        keep = (r < k) & (c >= k)
-        self._A_IG = sp.csr_matrix((coo.data[keep], (r[keep], c[keep] - k)), shape=(k, m))
-        del A, coo
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            raise SolverError("SuperLU permuted the rows and columns of a body's matrix differently; use "
+                              "method='full'")
+        L = lu.L.tocsc()                         # A' = L D L^T (A' symmetric: its U is D L^T to rounding)
+        self._d = lu.U.diagonal()
+        del lu
+        self._L21 = L[k:, :k].tocsr()
+        L22 = L[k:, k:]
+        tail = (L22 @ sp.diags(self._d[k:]) @ L22.T).toarray() if m else np.zeros((0, 0))
+        self._L22 = L22.tocsr()
         self._sweep_L = spla.splu(L, **SUPERLU_OPTIONS)
         del L
-        self._sweep_U = spla.splu(U, **SUPERLU_OPTIONS)
-        del U
         super().__init__(n, gamma, tail[np.ix_(rows, cols)])
 
     @property
     def memory(self):
-        parts = (self._sweep_L, self._sweep_U, self._L22, self._A_IG)
-        return None if self._sweep_L is None else 12 * sum(int(x.nnz) for x in parts)
+        parts = (self._sweep_L, self._L21, self._L22)
+        return None if self._sweep_L is None else 12 * sum(int(x.nnz) for x in parts) + 8 * len(self._d)
 
     def free(self):
-        self._sweep_L = self._sweep_U = None
+        self._sweep_L = None
 
     def _permuted(self, rhs):                    # b' = Pr b[order] (a vector or columns)
         b = np.asarray(rhs, dtype=float)
@@ -306,21 +302,20 @@ class SuperLUFactorization(Factorization):
         return x
 
     def solve(self, rhs):
-        return self._unpermuted(self._sweep_U.solve(self._sweep_L.solve(self._permuted(rhs))))
+        z = self._sweep_L.solve(self._permuted(rhs))
+        return self._unpermuted(self._sweep_L.solve(z / self._d.reshape((-1,) + (1,) * (z.ndim - 1)), trans="T"))
 
     def forward(self, rhs):
-        bp = self._permuted(rhs)
-        z = self._sweep_L.solve(bp)
-        return Forward((self._L22 @ z[self.n - len(self.gamma):])[self._rows], bp)
+        z = self._sweep_L.solve(self._permuted(rhs))             # z = L^{-1} b'
+        return Forward((self._L22 @ z[self.n - len(self.gamma):])[self._rows], z)
 
     def backward(self, fwd, v):
-        bp, k = fwd.state, self.n - len(self.gamma)
-        y = np.zeros_like(bp)
+        z, k = fwd.state, self.n - len(self.gamma)
+        y = np.zeros_like(z)
         y[k:][self._cols] = v                                    # y_G = Pc^T v
-        y[:k] = bp[:k] - self._A_IG @ y[k:]
-        w = self._sweep_L.solve(y)                               # L11^{-1} (b'_I - A'_IG y_G) in the leading rows
-        w[k:] = 0
-        y[:k] = self._sweep_U.solve(w)[:k]                       # U [y_I; 0] = [U11 y_I; 0]
+        d = self._d[:k].reshape((-1,) + (1,) * (z.ndim - 1))
+        y[:k] = z[:k] / d - self._L21.T @ y[k:]                  # L11^T y_I = D11^{-1} z_I - L21^T y_G
+        y[:k] = self._sweep_L.solve(np.concatenate([y[:k], np.zeros_like(y[k:])]), trans="T")[:k]
         x = self._unpermuted(y)
         x[self.gamma] = v
         return x

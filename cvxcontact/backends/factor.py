@@ -250,9 +250,8 @@ class SuperLUFactorization(Factorization):
     backward L11^T y_I = D11^{-1} z_I - L21^T y_G, y_G = Pc^T v, x = Pc y; Sigma = L22 D22 L22^T: exact sweeps of
     one symmetric matrix, as PARDISO's. The sweep before, x0 - S^{-1} [0; Sigma (x0_G - v)] with x0 = S^{-1} b,
     cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I 1.65e-7 off a solve with S_II;
-    now 1e-14); with SuperLU's own U (D L^T to rounding only), Sigma and the sweeps disagreed (P2 "gamma3",
-    two_blocks((8, 4), (5, 3)): pressure 4.8e-11 off PARDISO's). Measured (thin_layer(400)'s bodies, two_boxes(14)
-    in 3D): 0.56 to 0.97 x the memory of SuperLU's L and U, 1.25 to 1.4 x the factorisation time."""
+    now 1e-14). Measured (thin_layer(400)'s bodies, two_boxes(14) in 3D): 0.56 to 0.97 x the memory of SuperLU's
+    L and U, 1.25 to 1.4 x the factorisation time."""
 
     name = "superlu"
 

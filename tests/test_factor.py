@@ -393,8 +393,8 @@ def test_superlu_sweeps_follow_superlus_own_permutations(monkeypatch):
     """SuperLU's row and column permutations, which its options here leave as the identity (natural order, diagonal
     pivots, symmetric mode: so on every scene measured), are followed by the sweeps where they are not: a minimum
     degree column order that keeps the three Gamma dofs last (this quasi-definite matrix of order 50; the other
-    seeds tried move them and are refused) against dense solves. Measured at most 5.2e-16 (Nehalem; default,
-    Haswell, Prescott, Sandybridge 2.5e-16 to 3.7e-16)."""
+    seeds tried move them and are refused) against dense solves. Measured at most 5.2e-16 (Nehalem; the other
+    kernel sets 3.7e-16 to 5.0e-16)."""
     monkeypatch.setattr(factor, "SUPERLU_OPTIONS", dict(factor.SUPERLU_OPTIONS, permc_spec="MMD_AT_PLUS_A"))
     t, n, p = 162, 40, 10
     rng = np.random.default_rng(t)

@@ -313,8 +313,8 @@ def test_without_pardiso_the_remade_interior_factor_keeps_the_bodys_order(monkey
     assert all(c.factor.remade > 0 and c.factor.order is not None for c in bodies)
     for c in bodies:
         k = len(c.factor.interior)
-        # the released run's own factorisation (not the SuperLU objects of its triangular factors L and U that
-        # SuperLUFactorization keeps for its sweeps: one of their two factors is the identity, n stored)
+        # the released run's own factorisation (not the SuperLU object of its factor L that SuperLUFactorization
+        # keeps for its sweeps: that one's U is the identity, n stored)
         first = [lu for n, lu in made if n == c.factor.n and min(lu.L.nnz, lu.U.nnz) > n][-1]
         leading = first.L[:k, :k].nnz + first.U[:k, :k].nnz
         remade = [lu.L.nnz + lu.U.nnz for n, lu in made if n == k]

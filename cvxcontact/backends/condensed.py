@@ -75,10 +75,6 @@ class CondensedBody:
         """The adapter that factorised S ("superlu" or "pardiso")."""
         return self.factor.name
 
-    @property
-    def lu(self):
-        """SuperLU's factors (None for another adapter)."""
-        return getattr(self.factor, "lu", None)
 
     @property
     def perm(self):

@@ -13,8 +13,9 @@ and full solves x = S^{-1} b. :func:`factorize` gives both through one adapter:
 
 ``superlu``  SciPy's SuperLU without pivoting in symmetric mode, on a minimum-degree node order with the
              Gamma dofs last; Sigma is the trailing m x m block of L U (a symmetric quasi-definite matrix
-             has an LDL^T factorisation in every symmetric order, so no pivoting is needed). SciPy only
-             hands out L and U as whole copies, which costs about a quarter of the factorisation time.
+             has an LDL^T factorisation in every symmetric order, so no pivoting is needed). L and U are kept
+             (each as a SuperLU object of its own) for partial sweeps as PARDISO's below: forward z = L^{-1} b,
+             r = L22 z_G; backward x_I = U11^{-1} L11^{-1} (b_I - S_IG v) (:class:`SuperLUFactorization`).
 ``pardiso``  Intel oneMKL PARDISO through ctypes on ``libmkl_rt`` (the optional extra
              ``pip install "cvxcontact[pardiso]"``, x86-64): real symmetric indefinite (mtype -2), its own
              nested-dissection order for I, the Gamma dofs marked as Schur rows (iparm[35]); the
@@ -241,7 +242,16 @@ class Factorization:
 
 
 class SuperLUFactorization(Factorization):
-    """SuperLU on ``order`` (a permutation of the dofs with the Gamma dofs last, in ``gamma`` order)."""
+    """SuperLU on ``order`` (a permutation of the dofs, the Gamma dofs last in ``gamma`` order), kept as
+    A' = L D L^T for partial sweeps: A = S[order][:, order] = Pr^T L U Pc^T (SuperLU's permutations, the same for
+    rows and columns, keep the Gamma block last; checked), A' = Pr A Pc is symmetric, so U = D L^T to rounding and
+    L and D = diag(U) alone are kept (L as a SuperLU object of its own: a triangular matrix's, its diagonal the
+    pivots, is itself). Split after k = n - m interior rows: forward z = L^{-1} b', r' = L22 z_G (b' = Pr b);
+    backward L11^T y_I = D11^{-1} z_I - L21^T y_G, y_G = Pc^T v, x = Pc y; Sigma = L22 D22 L22^T: exact sweeps of
+    one symmetric matrix, as PARDISO's. The sweep before, x0 - S^{-1} [0; Sigma (x0_G - v)] with x0 = S^{-1} b,
+    cancelled on slender bodies (thin_layer(400)'s layer: |x0| = 1.4e3 |x|, x_I 1.65e-7 off a solve with S_II;
+    now 1e-14). Measured (thin_layer(400)'s bodies, two_boxes(14) in 3D): 0.56 to 0.97 x the memory of SuperLU's
+    L and U, 1.25 to 1.4 x the factorisation time."""
 
     name = "superlu"
 
@@ -249,39 +259,63 @@ class SuperLUFactorization(Factorization):
         n, m = S.shape[0], len(gamma)
         if not np.array_equal(order[n - m:], gamma):
             raise SolverError("the superlu order must end with the Gamma dofs in their sorted order")
-        self.perm = order
-        self.lu = spla.splu(S[order][:, order].tocsc(), **SUPERLU_OPTIONS)
-        rows, cols = self.lu.perm_r[n - m:] - (n - m), self.lu.perm_c[n - m:] - (n - m)
+        self.perm, k = order, n - m
+        A = S[order][:, order].tocsc()
+        lu = spla.splu(A, **SUPERLU_OPTIONS)
+        self._perm_r, self._perm_c = lu.perm_r, lu.perm_c
+        self._rows, self._cols = rows, cols = lu.perm_r[k:] - k, lu.perm_c[k:] - k
         if m and (rows.min() < 0 or cols.min() < 0):
             raise SolverError("the factorisation moved the contact dofs away from the end of the elimination "
                               "order; use method='full'")
-        tail = (self.lu.L[n - m:, n - m:] @ self.lu.U[n - m:, n - m:]).toarray() if m else np.zeros((0, 0))
+        if not np.array_equal(lu.perm_r, lu.perm_c):
+            raise SolverError("SuperLU permuted the rows and columns of a body's matrix differently; use "
+                              "method='full'")
+        L = lu.L.tocsc()                         # A' = L D L^T (A' symmetric: its U is D L^T to rounding)
+        self._d = lu.U.diagonal()
+        del lu
+        self._L21 = L[k:, :k].tocsr()
+        L22 = L[k:, k:]
+        tail = (L22 @ sp.diags(self._d[k:]) @ L22.T).toarray() if m else np.zeros((0, 0))
+        self._L22 = L22.tocsr()
+        self._sweep_L = spla.splu(L, **SUPERLU_OPTIONS)
+        del L
         super().__init__(n, gamma, tail[np.ix_(rows, cols)])
 
     @property
     def memory(self):
-        return None if self.lu is None else 12 * int(self.lu.nnz)
+        parts = (self._sweep_L, self._L21, self._L22)
+        return None if self._sweep_L is None else 12 * sum(int(x.nnz) for x in parts) + 8 * len(self._d)
 
     def free(self):
-        self.lu = None
+        self._sweep_L = None
 
-    def _full(self, rhs):
-        x = np.empty_like(rhs, dtype=float)
-        x[self.perm] = self.lu.solve(np.asarray(rhs, dtype=float)[self.perm])
+    def _permuted(self, rhs):                    # b' = Pr b[order] (a vector or columns)
+        b = np.asarray(rhs, dtype=float)
+        bp = np.empty_like(b)
+        bp[self._perm_r] = b[self.perm]
+        return bp
+
+    def _unpermuted(self, y):                    # x over the dofs from y = Pc^T x[order]
+        x = np.empty_like(y)
+        x[self.perm] = y[self._perm_c]
         return x
 
     def solve(self, rhs):
-        return self._full(rhs)
+        z = self._sweep_L.solve(self._permuted(rhs))
+        return self._unpermuted(self._sweep_L.solve(z / self._d.reshape((-1,) + (1,) * (z.ndim - 1)), trans="T"))
 
     def forward(self, rhs):
-        x = self._full(rhs)
-        return Forward(self.schur @ x[self.gamma], x)
+        z = self._sweep_L.solve(self._permuted(rhs))             # z = L^{-1} b'
+        return Forward((self._L22 @ z[self.n - len(self.gamma):])[self._rows], z)
 
     def backward(self, fwd, v):
-        x0 = fwd.state                     # S^{-1} b; subtract S^{-1} [0; Sigma (x0_G - v)] (exact)
-        w = np.zeros(self.n)
-        w[self.gamma] = self.schur @ (x0[self.gamma] - v)
-        x = x0 - self._full(w)
+        z, k = fwd.state, self.n - len(self.gamma)
+        y = np.zeros_like(z)
+        y[k:][self._cols] = v                                    # y_G = Pc^T v
+        d = self._d[:k].reshape((-1,) + (1,) * (z.ndim - 1))
+        y[:k] = z[:k] / d - self._L21.T @ y[k:]                  # L11^T y_I = D11^{-1} z_I - L21^T y_G
+        y[:k] = self._sweep_L.solve(np.concatenate([y[:k], np.zeros_like(y[k:])]), trans="T")[:k]
+        x = self._unpermuted(y)
         x[self.gamma] = v
         return x
 

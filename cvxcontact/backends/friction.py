@@ -69,7 +69,7 @@ from .frictionrows import (
 )
 from .frictionsteps import sequential as _sequential
 from .frictiontangency import kept as _kept
-from .frictiontangency import tangency_polish
+from .frictiontangency import row_slack, tangency_polish
 from .full import ContactModel, mixed_kkt
 from .mixed import HeldEnergy, mixed_system, stacked, unstacked
 from .program import conic_options, timed_program
@@ -252,10 +252,8 @@ def _cuts(problem, raw, timings, segment, t, capacity=None, start=None, rounds=C
         if not trial.polished:
             return None
         solved.append(trial)
-        jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, trial.u))     # at the rows of the cones
-        jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, trial.taus)), np.zeros(n))
-        U = max([float(np.abs(uk).max(initial=0.0)) for uk in trial.u] + [np.finfo(float).tiny])
-        return trial.y, jump - problem.g, np.full(n, U), trial, trial.active
+        slack, U = row_slack(problem, trial)                               # at the rows of the cones
+        return trial.y, slack, np.full(n, U), trial, trial.active
 
     out = accumulate_cuts(B, solve, segment, t, max_rounds=rounds, tol=CONE_ROUNDING, width=w,
                           departure=problem.departure)

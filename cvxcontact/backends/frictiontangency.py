@@ -50,7 +50,7 @@ from .result import Finish, Route
 from .ridges import ridge_newton
 from .tangency import tangency_newton
 
-__all__ = ["kept", "tangency_polish"]
+__all__ = ["kept", "row_slack", "tangency_polish"]
 
 log = logging.getLogger(__name__)
 
@@ -169,10 +169,18 @@ def kept(problem, cuts, done):
     n = problem.E.shape[0]
     segment, _, y = cuts.points
     pressed = np.asarray(segment)[n:][np.asarray(y, dtype=float)[n:] > 0]
-    jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, cuts.u))
-    jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, cuts.taus)), np.zeros(n))
-    U = max([float(np.abs(uk).max(initial=0.0)) for uk in cuts.u] + [np.finfo(float).tiny])
-    if (np.abs(jump - problem.g)[cells[pressed]] <= CLOSED * U).all():
+    slack, U = row_slack(problem, cuts)
+    if (np.abs(slack)[cells[pressed]] <= CLOSED * U).all():
         return cuts
     return replace(cuts, polished=False, route=Route.INTERIOR_POINT_FRICTION, kept=CUTS_KEPT,
                    declined=done.within(f"the {CUTS_KEPT} is kept, not finished at the exact tangency points"))
+
+
+def row_slack(problem, answer) -> tuple[np.ndarray, float]:
+    """([u_nu] - g at the rows of the cones for ``answer``'s displacements and obstacle translations, the largest
+    displacement, at least the smallest positive float): the slack the cut rounds and :func:`kept` read."""
+    n = problem.E.shape[0]
+    jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, answer.u))
+    jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, answer.taus)), np.zeros(n))
+    U = max([float(np.abs(uk).max(initial=0.0)) for uk in answer.u] + [np.finfo(float).tiny])
+    return jump - problem.g, U

@@ -94,10 +94,15 @@ class CondensedBody:
         """v0 = Sigma^{-1} r: the Gamma part of S^{-1} F (no contact force)."""
         return self.factor.schur_solve(fwd.reduced)
 
+    def gamma_values(self, fwd: Forward, contact_force) -> np.ndarray:
+        """v = Sigma^{-1} (r - J^T contact_force): the Gamma part of S^{-1} (F - J^T contact_force), from the
+        forward sweep of F (J^T only touches the Gamma dofs)."""
+        return self.factor.schur_solve(fwd.reduced - self.jump.T @ contact_force)
+
     def back_substitute(self, fwd: Forward, contact_force) -> np.ndarray:
-        """x = S^{-1} (F - J^T contact_force) from the forward sweep of F: v = Sigma^{-1} (r - J^T
-        contact_force) on the Gamma dofs (J^T only touches them), then one backward sweep."""
-        return self.factor.backward(fwd, self.factor.schur_solve(fwd.reduced - self.jump.T @ contact_force))
+        """x = S^{-1} (F - J^T contact_force) from the forward sweep of F: its :meth:`gamma_values`, then one
+        backward sweep."""
+        return self.factor.backward(fwd, self.gamma_values(fwd, contact_force))
 
     def lift(self, contact_force):
         """J^T contact_force as a vector over the free dofs (nonzero on the Gamma dofs only)."""

@@ -117,16 +117,15 @@ class Condensation:
         a forward and a backward sweep of the correction per body; the same fields to rounding)."""
         E, g = problem.E, problem.g
         t0 = time.perf_counter()
-        v = [c.factor.schur_solve(f.reduced - c.jump.T @ (E.T @ y)) for c, f in zip(self.bodies, self.sweeps)]
+        v = [c.gamma_values(f, E.T @ y) for c, f in zip(self.bodies, self.sweeps)]
         active = np.asarray(active, dtype=bool)
         if self.compliance is not None and active.any():
             slack = sum(R @ vk for R, vk in zip(self.compliance.rows, v)) - g
             dy = closed_solve(self.compliance.W, slack, active, self.compliance.last_factor)
             y = y + dy
             v = [vk - c.factor.schur_solve(c.jump.T @ (E.T @ dy)) for vk, c in zip(v, self.bodies)]
-        x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
-        return (*split(self.bodies, x, problem.blocks), y)
+        return (*self.invert_gamma(problem, v, timings), y)
 
     def invert_gamma(self, problem, v, timings):
         """(u, phi) of every body with its Gamma values ``v`` (per body) given, for the last :meth:`apply`."""

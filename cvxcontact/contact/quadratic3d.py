@@ -259,13 +259,9 @@ class QuadraticSurface(Represented):
         miss = np.flatnonzero(at < 0)
         full = t.mass.tocsr()
         lumped = np.asarray(full[hit][:, miss].sum(axis=1)).ravel()
-        faces = np.asarray(t.faces)
+        faces, _, _, part, lone = self._reached_faces()
         local = at[faces]                                               # (f, 6) row of each node, -1 if it misses
-        count = (local >= 0).sum(axis=1)
-        whole, part = count == 6, (count > 0) & (count < 6)
-        lone = np.zeros(len(hit), dtype=bool)
-        lone[local[part, :3][local[part, :3] >= 0]] = True
-        lone[local[whole, :3].ravel()] = False                          # a reaching vertex on no whole face
+        lone = lone[hit]                                                # a reaching vertex on no whole face
         area = _area(t.x[faces[:, :3]])
         # (vertex, midpoint) next to each other on a partial face: m01, m20 at v0; m01, m12 at v1; m12, m20 at v2
         v = local[part][:, [0, 0, 1, 1, 2, 2]].ravel()
@@ -391,6 +387,21 @@ class QuadraticSurface(Represented):
         _, cut = self._sigma_faces(condition)
         return self._overlap_hats(int(condition[-1]) - 1, cut)
 
+    def _reached_faces(self):
+        """The body's faces against an obstacle reaching its part only in part: (faces (f, 6), the nodes the
+        obstacle reaches (bool, nodes of the trace), the faces all six of whose nodes it reaches, those some but not
+        all of whose nodes it reaches (bool, f each), the lone vertices: reaching vertices on no wholly reached
+        face (bool, nodes))."""
+        t = self.traces[0]
+        reached = np.zeros(len(t.nodes), dtype=bool)
+        reached[np.asarray(self.reach)] = True
+        faces = np.asarray(t.faces)
+        count = reached[faces].sum(axis=1)
+        whole, partial = count == 6, (count > 0) & (count < 6)
+        lone = reached.copy()
+        lone[faces[whole, :3].ravel()] = False                   # a reaching vertex on no whole face
+        return faces, reached, whole, partial, lone
+
     def _partial_weights(self) -> np.ndarray:
         """(size,) m^2: against an obstacle, the law's nodal weights on the faces of the body's part it reaches only
         in part (some of their six P2 nodes reach it, not all; docs/formulation.md §15): the lumped rule of the
@@ -404,13 +415,8 @@ class QuadraticSurface(Represented):
         vertex and those midpoints: A/12 and A/4 when both of a midpoint's vertices are). Positive at every
         node of X_h on no wholly reached face (before, such a node carried no law)."""
         t, reach = self.traces[0], np.asarray(self.reach)
-        reached = np.zeros(len(t.nodes), dtype=bool)
-        reached[reach] = True
-        faces = np.asarray(t.faces)
-        count = reached[faces].sum(axis=1)
-        whole, part = faces[count == 6], faces[(count > 0) & (count < 6)]
-        lone = reached.copy()
-        lone[whole[:, :3].ravel()] = False                       # a reaching vertex on no whole face
+        faces, reached, _, partial, lone = self._reached_faces()
+        part = faces[partial]
         lone = lone[part[:, :3]].astype(float)                   # (k, 3) at the partial faces' vertices
         area = _area(t.x[part[:, :3]])[:, None]
         share = np.column_stack([lone / 12.0, 1.0 / 3 - (lone + lone[:, [1, 2, 0]]) / 24.0]) * area

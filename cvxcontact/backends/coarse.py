@@ -29,8 +29,9 @@ once, where the square of C^2's mean row count (about the work per row of that p
 search from each coarse row. Forming the power costs about m b2^2 (b2: C^2's mean row count), the searches about
 the rows m times a constant (each coarse row's search visits about its ball, the balls about cover the rows), so the
 power is the cheaper on a sparse (slender) graph. Measured (one thread, process CPU, best of 5;
-benchmarks/longif_coarse_rows.py): thin_layer(3000), 5,101 rows, b2^2 = 106: the power 3.3 ms against 21.1 ms for
-the searches; tests/scenes3d.offset_boxes(28), 4,816 rows, b2^2 = 12,650: 131 ms against 16.5 ms. The two costs
+benchmarks/longif_coarse_rows.py, three runs): thin_layer(3000), 5,101 rows, b2^2 = 106: the power 3.3-6.5 ms against
+21-38 ms for the searches; tests/scenes3d.offset_boxes(28), 4,816 rows, b2^2 = 12,648: 131-162 ms against 16.5-19
+ms. The two costs
 cross at b2^2 = 670 with thin_layer's constants (6.1 ns an entry, 4.1 us a row), 1,600 with the boxes' (2.2 ns,
 3.4 us). C^2's mean row count is read on :data:`DENSITY_SAMPLE` rows evenly spread (C^2 itself costs 14 ms on the
 boxes: about the searches' own cost)."""

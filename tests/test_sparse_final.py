@@ -11,6 +11,7 @@ import scipy.sparse as sp
 import cvxcontact as cc
 import cvxcontact.backends.sparse as sparse_mod
 from cvxcontact.apps.demo import thin_layer
+from cvxcontact.backends import coarse as coarse_module
 from cvxcontact.backends import factor as factor_module
 from cvxcontact.backends.coarse import COARSE_HOPS, coarse_rows, row_graph
 from cvxcontact.backends.condensed import quasi_definite_rhs
@@ -89,10 +90,15 @@ def test_k_and_its_absolute_values_on_the_patterns_own_arrays(layer200):
     assert other.data is not K.data and abs(K - ref).max() == 0.0     # building another K(A) left K as it was
 
 
-def test_coarse_rows_are_the_greedy_independent_set_of_the_balls_of_four_hops(layer200):
-    """backends/coarse.coarse_rows reads the balls of COARSE_HOPS hops from the pattern of C^4; the same rows as
-    the greedy maximal independent set in row order with every ball found by its own breadth-first search on the
-    rows' graph (rows sharing a dof), some rows not free (never coarse, but still in the graph)."""
+@pytest.mark.parametrize("work", [None, 0.0, np.inf])
+def test_coarse_rows_are_the_greedy_independent_set_of_the_balls_of_four_hops(monkeypatch, layer200, work):
+    """backends/coarse.coarse_rows reads the balls of COARSE_HOPS hops from the pattern of C^4 or finds each by a
+    search from its coarse row, by the graph's density (coarse.SEARCH_WORK: None the default, 0 the searches, inf
+    the power); either way the same rows as the greedy maximal independent set in row order with every ball found
+    by its own breadth-first search on the rows' graph (rows sharing a dof), some rows not free (never coarse, but
+    still in the graph)."""
+    if work is not None:
+        monkeypatch.setattr(coarse_module, "SEARCH_WORK", work)
     blocks, E, _, _ = layer200
     sc = SparseContact(blocks, E)
     C = row_graph(sc.G)
@@ -113,6 +119,30 @@ def test_coarse_rows_are_the_greedy_independent_set_of_the_balls_of_four_hops(la
     idx = coarse_rows(C, free)
     assert np.array_equal(idx, keep) and 0 < len(idx) < free.sum() and free[idx].all()
 
+
+
+def test_coarse_rows_choose_the_power_on_a_slender_graph_and_the_searches_on_a_3d_one(monkeypatch, layer200):
+    """coarse.coarse_rows forms the power of the rows' graph where its 2-hop balls are small (thin_layer(200): C^2's
+    mean row count squared 106, counted from the pattern, against SEARCH_WORK = 1000) and searches from each coarse
+    row where they are large (tests/scenes3d.offset_boxes(6), a 3D overlay: 6,832; forming C^4 there cost 8x the
+    searches at 4,816 rows, benchmarks/longif_coarse_rows.py); on the 3D graph the rows are the power's too."""
+    from scenes3d import offset_boxes
+
+    formed = []
+    power = coarse_module._power
+    monkeypatch.setattr(coarse_module, "_power", lambda B, k: formed.append(k) or power(B, k))
+    blocks, E, _, _ = layer200
+    coarse_rows(row_graph(SparseContact(blocks, E).G), np.ones(E.shape[0], dtype=bool))
+    assert formed == [COARSE_HOPS // 2]
+    problem = cc.ContactSolver(offset_boxes(6)).problem
+    C = row_graph(sp.hstack([problem.E @ b.jump for b in problem.blocks]).tocsr())
+    free = np.ones(C.shape[0], dtype=bool)
+    free[::5] = False
+    searched = coarse_rows(C, free)
+    assert formed == [COARSE_HOPS // 2]                      # no power formed for the 3D graph
+    monkeypatch.setattr(coarse_module, "SEARCH_WORK", np.inf)
+    assert np.array_equal(searched, coarse_rows(C, free)) and formed == [COARSE_HOPS // 2] * 2
+    assert 0 < len(searched) < free.sum() and free[searched].all()
 
 WRONG_PREDICTION_BOUNDS = (1e-11, 1e-9)
 """(x = [u; phi], y) of the route whose every settled set is claimed as the answer, against an independent sparse

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["COARSE_HOPS", "NEAR_DEPENDENT", "coarse_rows", "row_graph", "spread"]
+__all__ = ["COARSE_HOPS", "DENSITY_SAMPLE", "NEAR_DEPENDENT", "SEARCH_WORK", "coarse_rows", "row_graph", "spread"]
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
@@ -22,6 +22,22 @@ neighbours); the start closes every row within as many hops of a closed coarse r
 NEAR_DEPENDENT = 1e-2
 """Two rows whose Jacobi-scaled cosine exceeds 1 - this are nearly dependent (merged nodes of two traces close
 together): the start closes at most one of them (the more compliant)."""
+
+SEARCH_WORK = 1000.0
+"""How :func:`coarse_rows` finds the balls of :data:`COARSE_HOPS` hops: from the pattern of C^4 = (C^2)^2, formed
+once, where the square of C^2's mean row count (about the work per row of that product) is at most this; else by a
+search from each coarse row. Forming the power costs about m b2^2 (b2: C^2's mean row count), the searches about
+the rows m times a constant (each coarse row's search visits about its ball, the balls about cover the rows), so the
+power is the cheaper on a sparse (slender) graph. Measured (one thread, process CPU, best of 5;
+benchmarks/longif_coarse_rows.py, three runs): thin_layer(3000), 5,101 rows, b2^2 = 106: the power 3.3-6.5 ms against
+21-38 ms for the searches; tests/scenes3d.offset_boxes(28), 4,816 rows, b2^2 = 12,648: 131-162 ms against 16.5-19
+ms. The two costs
+cross at b2^2 = 670 with thin_layer's constants (6.1 ns an entry, 4.1 us a row), 1,600 with the boxes' (2.2 ns,
+3.4 us). C^2's mean row count is read on :data:`DENSITY_SAMPLE` rows evenly spread (C^2 itself costs 14 ms on the
+boxes: about the searches' own cost)."""
+
+DENSITY_SAMPLE = 128
+"""The rows on which :func:`coarse_rows` counts C^2's mean row count (:data:`SEARCH_WORK`)."""
 
 
 def row_graph(G) -> sp.csr_matrix:
@@ -37,22 +53,41 @@ def row_graph(G) -> sp.csr_matrix:
 def coarse_rows(C, free) -> np.ndarray:
     """The coarse rows (sorted indices): a maximal independent set of the free rows of the graph ``C``
     (:func:`row_graph`) to :data:`COARSE_HOPS` hops, greedy in row order: a free row not within COARSE_HOPS hops of
-    an earlier coarse row is coarse. The balls are the rows of the pattern of C ** COARSE_HOPS (C holds every row
-    as its own neighbour, its entries are ones: no cancellation; about 20 rows a ball on thin_layer(3000), 5,101
-    rows), formed once. On a 3D interface the balls are about 20 times larger and the power costs more than the
-    searches it replaces (tests/scenes3d.offset_boxes(28), 4,816 rows: 391 rows a ball, 23 MB, 0.145 s against
-    0.015 s for a search per coarse row; thin_layer(3000): 0.008 s against 0.034 s)."""
-    P = C
-    for _ in range(COARSE_HOPS - 1):
-        P = P @ C
-    P = P.tocsr()
-    ind, ptr = P.indices, P.indptr
+    an earlier coarse row is coarse. Each coarse row's ball (the rows within COARSE_HOPS hops) is read from the
+    pattern of C ** COARSE_HOPS formed once, or found by its own search (:func:`_ball`), whichever costs less by
+    the graph's density (:data:`SEARCH_WORK`); the same rows either way."""
+    C = C.tocsr()
+    sample = np.unique(np.linspace(0, C.shape[0] - 1, min(C.shape[0], DENSITY_SAMPLE)).astype(np.int64))
+    P = None
+    if ((C[sample] @ C).nnz / max(len(sample), 1)) ** 2 <= SEARCH_WORK:      # b2 on the sampled rows
+        P = _power(C @ C, COARSE_HOPS // 2)         # the pattern of C^4 = (C^2)^2 (entries >= 0: no cancellation)
+        P = (P @ C if COARSE_HOPS % 2 else P).tocsr()
     keep, blocked = np.zeros(C.shape[0], dtype=bool), ~np.asarray(free, dtype=bool)
     for a in range(C.shape[0]):
         if not blocked[a]:
             keep[a] = True
-            blocked[ind[ptr[a]:ptr[a + 1]]] = True
+            blocked[_ball(C, a) if P is None else P.indices[P.indptr[a]:P.indptr[a + 1]]] = True
     return np.flatnonzero(keep)
+
+
+def _power(B, k: int):
+    """B ** k (sparse, k >= 1) by repeated squaring."""
+    out = None
+    while True:
+        if k & 1:
+            out = B if out is None else out @ B
+        k >>= 1
+        if not k:
+            return out
+        B = B @ B
+
+
+def _ball(C, a) -> np.ndarray:
+    """The rows within :data:`COARSE_HOPS` hops of row ``a`` of the graph ``C`` (CSR), by a search from it."""
+    ball = np.array([a])
+    for _ in range(COARSE_HOPS):
+        ball = np.unique(np.concatenate([C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
+    return ball
 
 
 def spread(C, closed, free, G, diagonal, w):

@@ -83,10 +83,11 @@ def _power(B, k: int):
 
 
 def _ball(C, a) -> np.ndarray:
-    """The rows within :data:`COARSE_HOPS` hops of row ``a`` of the graph ``C`` (CSR), by a search from it."""
+    """The rows within :data:`COARSE_HOPS` hops of row ``a`` of the graph ``C`` (CSR), by a search from it (the
+    pattern of row ``a`` of C ** COARSE_HOPS: empty where the row has no neighbour, as there)."""
     ball = np.array([a])
     for _ in range(COARSE_HOPS):
-        ball = np.unique(np.concatenate([C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
+        ball = np.unique(np.concatenate([ball[:0]] + [C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
     return ball
 
 

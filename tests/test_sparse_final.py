@@ -135,10 +135,21 @@ def test_coarse_rows_choose_the_power_on_a_slender_graph_and_the_searches_on_a_3
     coarse_rows(row_graph(SparseContact(blocks, E).G), np.ones(E.shape[0], dtype=bool))
     assert formed == [COARSE_HOPS // 2]
     problem = cc.ContactSolver(offset_boxes(6)).problem
-    C = row_graph(sp.hstack([problem.E @ b.jump for b in problem.blocks]).tocsr())
+    G = sp.hstack([problem.E @ b.jump for b in problem.blocks]).tocsr()
+    C = row_graph(G)
     free = np.ones(C.shape[0], dtype=bool)
     free[::5] = False
     searched = coarse_rows(C, free)
+    near = (abs(G) @ abs(G).T).toarray() > 0                # rows sharing a dof, dense (240 rows): an independent
+    reach = near                                            # reference, the rows within COARSE_HOPS hops
+    for _ in range(COARSE_HOPS - 1):
+        reach = (reach.astype(float) @ near.astype(float)) > 0
+    keep, blocked = [], ~free
+    for a in range(len(free)):
+        if not blocked[a]:
+            keep.append(a)
+            blocked |= reach[a]
+    assert np.array_equal(searched, keep)                   # 3 coarse rows of 240
     assert formed == [COARSE_HOPS // 2]                      # no power formed for the 3D graph
     monkeypatch.setattr(coarse_module, "SEARCH_WORK", np.inf)
     assert np.array_equal(searched, coarse_rows(C, free)) and formed == [COARSE_HOPS // 2] * 2

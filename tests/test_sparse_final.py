@@ -133,7 +133,7 @@ def test_coarse_rows_choose_the_power_on_a_slender_graph_and_the_searches_on_a_3
     monkeypatch.setattr(coarse_module, "_power", lambda B, k: formed.append(k) or power(B, k))
     blocks, E, _, _ = layer200
     coarse_rows(row_graph(SparseContact(blocks, E).G), np.ones(E.shape[0], dtype=bool))
-    assert formed == [COARSE_HOPS // 2]
+    assert formed == [COARSE_HOPS]
     problem = cc.ContactSolver(offset_boxes(6)).problem
     G = sp.hstack([problem.E @ b.jump for b in problem.blocks]).tocsr()
     C = row_graph(G)
@@ -150,9 +150,9 @@ def test_coarse_rows_choose_the_power_on_a_slender_graph_and_the_searches_on_a_3
             keep.append(a)
             blocked |= reach[a]
     assert np.array_equal(searched, keep)                   # 3 coarse rows of 240
-    assert formed == [COARSE_HOPS // 2]                      # no power formed for the 3D graph
+    assert formed == [COARSE_HOPS]                      # no power formed for the 3D graph
     monkeypatch.setattr(coarse_module, "SEARCH_WORK", np.inf)
-    assert np.array_equal(searched, coarse_rows(C, free)) and formed == [COARSE_HOPS // 2] * 2
+    assert np.array_equal(searched, coarse_rows(C, free)) and formed == [COARSE_HOPS] * 2
     assert 0 < len(searched) < free.sum() and free[searched].all()
 
 
@@ -168,6 +168,20 @@ def test_coarse_rows_of_a_graph_with_rows_that_couple_to_no_dof_either_way(monke
     free = np.ones(12, dtype=bool)
     free[0] = False
     assert np.array_equal(coarse_rows(row_graph(G), free), [1, 3, 4, 7, 8])
+
+
+@pytest.mark.parametrize("hops", [1, 2, 3, 5])
+def test_coarse_rows_by_either_way_at_other_radii(monkeypatch, hops):
+    """The balls' radius is coarse.COARSE_HOPS whatever its value (rounds of tuning tried 2, 3, 5): by the power
+    (SEARCH_WORK = inf) and by the searches (0) the greedy set in row order with the balls of ``hops`` hops; on a
+    chain of 12 rows, row r on dofs r and r + 1 (rows a and b within ``hops`` hops where |a - b| <= hops), by hand
+    every (hops + 1)-th row."""
+    monkeypatch.setattr(coarse_module, "COARSE_HOPS", hops)
+    r = np.arange(12)
+    G = sp.csr_matrix((np.ones(24), (np.repeat(r, 2), np.stack([r, r + 1], axis=1).ravel())), shape=(12, 13))
+    for work in (np.inf, 0.0):
+        monkeypatch.setattr(coarse_module, "SEARCH_WORK", work)
+        assert np.array_equal(coarse_rows(row_graph(G), np.ones(12, dtype=bool)), np.arange(0, 12, hops + 1))
 
 
 WRONG_PREDICTION_BOUNDS = (1e-11, 1e-9)

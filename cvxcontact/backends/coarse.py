@@ -29,12 +29,11 @@ once, where the square of C^2's mean row count (about the work per row of that p
 search from each coarse row. Forming the power costs about m b2^2 (b2: C^2's mean row count), the searches about
 the rows m times a constant (each coarse row's search visits about its ball, the balls about cover the rows), so the
 power is the cheaper on a sparse (slender) graph. Measured (one thread, process CPU, best of 5;
-benchmarks/longif_coarse_rows.py, three runs): thin_layer(3000), 5,101 rows, b2^2 = 106: the power 3.3-6.5 ms against
-21-38 ms for the searches; tests/scenes3d.offset_boxes(28), 4,816 rows, b2^2 = 12,648: 131-162 ms against 16.5-19
-ms. The two costs
-cross at b2^2 = 670 with thin_layer's constants (6.1 ns an entry, 4.1 us a row), 1,600 with the boxes' (2.2 ns,
-3.4 us). C^2's mean row count is read on :data:`DENSITY_SAMPLE` rows evenly spread (C^2 itself costs 14 ms on the
-boxes: about the searches' own cost)."""
+benchmarks/longif_coarse_rows.py, three runs): thin_layer(3000), 5,101 rows, b2^2 = 106: the power 3.3-6.5 ms
+against 21-38 ms for the searches; tests/scenes3d.offset_boxes(28), 4,816 rows, b2^2 = 12,648: 131-162 ms against
+16.5-19 ms. The two costs cross at b2^2 = 670 with thin_layer's constants (6.1 ns an entry, 4.1 us a row), 1,600
+with the boxes' (2.2 ns, 3.4 us). C^2's mean row count is read on :data:`DENSITY_SAMPLE` rows evenly spread
+(C^2 itself costs 14 ms on the boxes: about the searches' own cost)."""
 
 DENSITY_SAMPLE = 128
 """The rows on which :func:`coarse_rows` counts C^2's mean row count (:data:`SEARCH_WORK`)."""
@@ -60,8 +59,7 @@ def coarse_rows(C, free) -> np.ndarray:
     sample = np.unique(np.linspace(0, C.shape[0] - 1, min(C.shape[0], DENSITY_SAMPLE)).astype(np.int64))
     P = None
     if ((C[sample] @ C).nnz / max(len(sample), 1)) ** 2 <= SEARCH_WORK:      # b2 on the sampled rows
-        P = _power(C @ C, COARSE_HOPS // 2)         # the pattern of C^4 = (C^2)^2 (entries >= 0: no cancellation)
-        P = (P @ C if COARSE_HOPS % 2 else P).tocsr()
+        P = _power(C, COARSE_HOPS).tocsr()          # the pattern of C^4 = (C^2)^2 (entries >= 0: no cancellation)
     keep, blocked = np.zeros(C.shape[0], dtype=bool), ~np.asarray(free, dtype=bool)
     for a in range(C.shape[0]):
         if not blocked[a]:
@@ -83,10 +81,11 @@ def _power(B, k: int):
 
 
 def _ball(C, a) -> np.ndarray:
-    """The rows within :data:`COARSE_HOPS` hops of row ``a`` of the graph ``C`` (CSR), by a search from it."""
+    """The rows within :data:`COARSE_HOPS` hops of row ``a`` of the graph ``C`` (CSR), by a search from it (the
+    pattern of row ``a`` of C ** COARSE_HOPS: empty where the row has no neighbour, as there)."""
     ball = np.array([a])
     for _ in range(COARSE_HOPS):
-        ball = np.unique(np.concatenate([C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
+        ball = np.unique(np.concatenate([ball[:0]] + [C.indices[C.indptr[b]:C.indptr[b + 1]] for b in ball]))
     return ball
 
 

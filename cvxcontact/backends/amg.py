@@ -88,6 +88,10 @@ already hold at 1e-4 it saves nothing and costs a restart: tests/scenes3d.py two
 48 -> 50, 58 -> 61, 62 -> 63 iterations, two_boxes(elastic=True) (2.0e4-9.4e4) 27 -> 28, 35 -> 37, 40 -> 42, the
 same sets and answers to 2e-10 (the review of h-sigfast)."""
 
+SETTLE = True
+"""Whether a loose solve (:data:`STEP_RTOLS`) whose set is changing stops before its tolerance as soon as two
+consecutive Krylov iterates imply the same next active set (:meth:`KrylovContact._system` ``verdict``)."""
+
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
 LOOSE_KEEP = 10
@@ -102,7 +106,7 @@ most."""
 
 
 def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None,
-          keep: int = 0) -> np.ndarray:
+          keep: int = 0, settled=None) -> np.ndarray:
     """x with ||b - K x|| <= rtol ||b|| (2-norms) by right-preconditioned restarted GMRES (Saad, Iterative
     Methods for Sparse Linear Systems, 2003, Alg. 9.5; classical Gram-Schmidt applied twice), from ``x0``,
     ``M`` the preconditioner (a fixed linear operator). Right preconditioning minimises the true residual, so
@@ -113,7 +117,11 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
     ``keep``: the first ``keep`` preconditioned basis vectors z_j = M v_j of a cycle are kept (``keep`` N doubles
     more), so that its update x += M V y = Z y + M (V[keep:] y[keep:]) applies M only to the basis beyond them:
     a cycle of at most ``keep`` iterations (a loose solve, :data:`STEP_RTOLS`) costs one application of M per
-    iteration instead of one more. The same x in exact arithmetic (M linear)."""
+    iteration instead of one more. The same x in exact arithmetic (M linear).
+
+    ``settled(x)``: asked after each iteration k <= ``keep`` of the first cycle about its iterate x_k = x0 + Z[:k]
+    y_k (cheap: no application of M); if it answers True, x_k is returned at once, whatever its residual (a loose
+    solve whose verdict has settled, :data:`SETTLE`; the caller knows the test was not met)."""
     n = b.shape[0]
     x = np.array(x0, dtype=float)
     target = rtol * np.linalg.norm(b)
@@ -157,6 +165,10 @@ def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int =
                 callback()
             if abs(g[k]) <= target or hn == 0.0:      # converged, or the Krylov space is invariant
                 break
+            if settled is not None and k <= keep and done == k and np.all(np.diag(H[:k, :k]) != 0.0):
+                xk = x + Z[:k].T @ np.linalg.solve(np.triu(H[:k, :k]), g[:k])
+                if settled(xk):
+                    return xk
         if k == 0:
             break
         short += abs(g[k]) <= target
@@ -361,6 +373,15 @@ def _seeded(seed: int = 0):
         np.random.set_state(state)
 
 
+class _Settled(Exception):
+    """Raised from CG's callback to stop a loose solve whose verdict has settled (:data:`SETTLE`); ``r``: the
+    iterate."""
+
+    def __init__(self, r):
+        super().__init__()
+        self.r = r
+
+
 class Reduced(spla.LinearOperator):
     """K = T^T S T + D of one active set (:meth:`KrylovContact._reduced`) as an operator, not formed: K r =
     T^T (S (T r)) + d r. T is the identity but at the eliminated dofs (one row each), so a product costs about
@@ -553,8 +574,11 @@ class KrylovContact:
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b
 
-    def _system(self, active, F, g, x_start, rtol=RTOL):
-        """(x, y) with the rows of ``active`` closed, or None if the Krylov solve misses ``rtol``."""
+    def _system(self, active, F, g, x_start, rtol=RTOL, verdict=None):
+        """(x, y) with the rows of ``active`` closed, or None if the Krylov solve misses ``rtol``. ``verdict(x,
+        y)``: the next active set an answer implies (None: its signs hold); given, a loose solve (rtol > RTOL)
+        stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`), its residual then
+        above rtol (an answer of such a solve only picks the next set)."""
         n = self.n
         rows = np.flatnonzero(active)
         slaves, piv = self.dof[rows], self.coef[rows]
@@ -572,21 +596,49 @@ class KrylovContact:
         r0[slaves] = 0.0
         its = []
         count = lambda _x=None: its.append(1)  # noqa: E731
+
+        def answer(r):
+            x = T @ r + x_fix
+            y = np.zeros(self.m)
+            y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
+            return x, y
+
+        settled = None
+        if verdict is not None and rtol > RTOL and SETTLE:
+            last = [None]
+
+            def settled(r):                      # the same next set implied by this iterate and the one before
+                new = verdict(*answer(r))
+                same = new is not None and last[0] is not None and np.array_equal(new, last[0])
+                last[0] = new
+                return same
         nb = np.linalg.norm(b)
         if nb == 0.0:
             r = np.zeros(n)
         elif self.ml_p is None:
-            r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
-                              callback=count)
+            def watch(xk):
+                count()
+                if settled is not None and settled(xk):
+                    raise _Settled(np.array(xk))
+            try:
+                r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
+                                  callback=watch)
+            except _Settled as stop:
+                r, settled = stop.r, True
         else:
-            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0)
+            loose = rtol > RTOL
+            found = [] if settled is not None else None
+
+            def watch(r):
+                found.append(settled(r))
+                return found[-1]
+            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if loose else 0,
+                      settled=watch if settled is not None else None)
+            settled = bool(found and found[-1])
         self.iterations += len(its)
-        if nb > 0.0 and not np.linalg.norm(b - K @ r) <= rtol * nb:
+        if nb > 0.0 and settled is not True and not np.linalg.norm(b - K @ r) <= rtol * nb:
             return None
-        x = T @ r + x_fix
-        y = np.zeros(self.m)
-        y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
-        return x, y
+        return answer(r)
 
     def release(self) -> None:
         """Drops what a solve builds from the blocks and a re-solve builds again (peak memory): S, the stacked
@@ -616,17 +668,24 @@ class KrylovContact:
         def step(active, stages):
             last[0] = active
             count[0] += 1
+
+            def verdict(x, y):                   # the next set the answer (x, y) implies, None if its signs hold
+                s = self.G @ x - g
+                scale = np.abs(self.G) @ np.abs(x) + np.abs(g) + self.w * np.abs(y)
+                scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny))
+                if signs_hold(y, s, active & movable, self.w, scale):
+                    return None
+                return (y * self.w + s > 0) & movable
+
             for rtol in stages:                  # loose solves pick the next set; the answer is a tight one
-                out = self._system(active & movable, F, g, self.x, rtol)
+                out = self._system(active & movable, F, g, self.x, rtol, verdict)
                 if out is None:
                     return None
                 x, y = out
                 self.x = x
-                s = self.G @ x - g
-                scale = np.abs(self.G) @ np.abs(x) + np.abs(g) + self.w * np.abs(y)
-                scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny))
-                if not signs_hold(y, s, active & movable, self.w, scale):
-                    return (x, y), (y * self.w + s > 0) & movable
+                new = verdict(x, y)
+                if new is not None:
+                    return (x, y), new
             return (x, y), None
 
         for stages in (STEP_RTOLS + (RTOL,), (RTOL,)):   # steps that cycle on loose solves: retried on tight ones

@@ -528,7 +528,7 @@ def test_gmres_stops_where_its_iterate_is_settled():
     for stop in (1, 3, 6):
         asked = []
 
-        def settled(x):
+        def settled(x, asked=asked, stop=stop):
             asked.append(np.array(x))
             return len(asked) == stop
 

@@ -105,7 +105,7 @@ def test_bench_amg_yardstick_is_seeded(boxes):
     pytest.importorskip("pyamg")
     b = benchmark("harness")
     p = cc.ContactSolver(boxes).problem
-    K, rhs, A, G, sizes = b.bonded_system(p)
+    _, rhs, A, G, sizes = b.bonded_system(p)
     runs = []
     for seed in (1, 2):
         np.random.seed(seed)

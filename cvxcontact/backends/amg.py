@@ -29,9 +29,10 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   (P1, 3.1e4 unknowns; answers agreeing to 8e-11 relative): 34 CG iterations in all and one set-up, against 100
   with the bare V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as
   much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
-  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous answer. A set still changing is
-  solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold,
-  so only the last set is solved to ``RTOL``.
+  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous
+  answer. A set still changing is solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to
+  ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and a loose solve whose set
+  fails its signs stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
@@ -90,8 +91,15 @@ already hold at 1e-4 it saves nothing and costs a restart: tests/scenes3d.py two
 same sets and answers to 2e-10 (the review of h-sigfast)."""
 
 SETTLE = True
-"""Whether a loose solve (:data:`STEP_RTOLS`) whose set is changing stops before its tolerance as soon as two
-consecutive Krylov iterates imply the same next active set (:meth:`KrylovContact._system` ``verdict``)."""
+"""Whether a loose solve (:data:`STEP_RTOLS`) stops before its tolerance as soon as two consecutive Krylov iterates
+imply the same next active set, their signs failing (:meth:`KrylovContact._system` ``verdict``; GMRES: iterates
+within :data:`LOOSE_KEEP`, formed from the kept vectors with no application of the preconditioner). Such an answer
+only picks the next set, as every loose one; the sets whose signs hold still tighten to RTOL, so the answer keeps
+its guarantee. Measured on two_boxes "sigma1" (PZT-5A on aluminium, GMRES): 1.5e5 unknowns 6 steps and 71 Krylov
+iterations without it, 8 and 67 with it; 4.6e5: 11 and 89, 10 and 84, the same final set; two aluminium boxes
+(CG; tests/test_amg_route.py ``_elastic_boxes(1e9, n=16)``): 7 steps and 58 iterations, 5 and 38, where without
+it the loose steps cycled (a set's 1e-2 solve pointed to a set whose 1e-4 solve pointed back) and were retried
+on tight solves (benchmarks/results/bench3d_scale.md)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 

@@ -96,7 +96,7 @@ imply the same next active set, their signs failing (:meth:`KrylovContact._syste
 within :data:`LOOSE_KEEP`, formed from the kept vectors with no application of the preconditioner). Such an answer
 only picks the next set, as every loose one; the sets whose signs hold still tighten to RTOL, so the answer keeps
 its guarantee. Measured on two_boxes "sigma1" (PZT-5A on aluminium, GMRES): 1.5e5 unknowns 6 steps and 71 Krylov
-iterations without it, 8 and 67 with it; 4.6e5: 11 and 89, 10 and 84, the same final set; two aluminium boxes
+iterations without it, 8 and 67 with it; 4.1e5: 11 and 89, 10 and 84, the same final set; two aluminium boxes
 (CG; tests/test_amg_route.py ``_elastic_boxes(1e9, n=16)``): 7 steps and 58 iterations, 5 and 38, where without
 it the loose steps cycled (a set's 1e-2 solve pointed to a set whose 1e-4 solve pointed back) and were retried
 on tight solves (benchmarks/results/bench3d_scale.md)."""

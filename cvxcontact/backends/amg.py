@@ -109,7 +109,7 @@ an answer within that many iterations costs no application of the preconditioner
 iterates can be formed cheaply for :data:`SETTLE` (16 N doubles at most, beside the basis of as many vectors;
 not kept by the answer's solve, RTOL, the longest basis: 24-43 vectors at 1.5e5-8.2e5 unknowns). Measured on
 two_boxes "sigma1" (PZT-5A on aluminium) with the four loose stages: the stages 1e-1 to 1e-4 take 0-9 iterations,
-the stage 1e-6 10-15 (12 and 10 at 1.5e5, 13 at 4.6e5, 15 at 8.2e5; benchmarks/results/bench3d_scale.md), which
+the stage 1e-6 10-15 (12 and 10 at 1.5e5, 13-14 at 4.1e5, 15 at 8.2e5; benchmarks/results/bench3d_scale.md), which
 with 10 kept vectors applied the preconditioner once more for their update; each saved application is one
 iteration's V-cycles."""
 

@@ -490,15 +490,15 @@ class KrylovContact:
             y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
             return x, y
 
-        settled = None
+        settled, stopped = None, [False]           # stopped: the last iterate asked was settled (returned)
         if verdict is not None and rtol > RTOL and SETTLE:
             last = [None]
 
             def settled(r):                      # the same next set implied by this iterate and the one before
                 new = verdict(*answer(r))
-                same = new is not None and last[0] is not None and np.array_equal(new, last[0])
+                stopped[0] = new is not None and last[0] is not None and np.array_equal(new, last[0])
                 last[0] = new
-                return same
+                return stopped[0]
         nb = np.linalg.norm(b)
         if nb == 0.0:
             r = np.zeros(n)
@@ -508,22 +508,15 @@ class KrylovContact:
                 if settled is not None and settled(xk):
                     raise _Settled(np.array(xk))
             try:
-                r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
-                                  callback=watch)
+                r, _ = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
+                               callback=watch)
             except _Settled as stop:
-                r, settled = stop.r, True
+                r = stop.r
         else:
-            loose = rtol > RTOL
-            found = [] if settled is not None else None
-
-            def watch(r):
-                found.append(settled(r))
-                return found[-1]
-            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if loose else 0,
-                      settled=watch if settled is not None else None)
-            settled = bool(found and found[-1])
+            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0,
+                      settled=settled)
         self.iterations += len(its)
-        if nb > 0.0 and settled is not True and not np.linalg.norm(b - K @ r) <= rtol * nb:
+        if nb > 0.0 and not stopped[0] and not np.linalg.norm(b - K @ r) <= rtol * nb:
             return None
         return answer(r)
 

@@ -376,12 +376,15 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
     node keeps its three displacement dofs and the u block is handed to pyamg node-blocked (BSR 3 x 3: node
     aggregates; dof-wise aggregation was measured 10x slower); their rows of the near-null space are zero. The
     V-cycles are the route's (``amg.v_cycle``: pyamg's ``aspreconditioner(cycle="V")`` without its two
-    finest-level residual norms, the same bits), so that the route and its yardstick run the same cycle."""
+    finest-level residual norms, the same bits), so that the route and its yardstick run the same cycle. The
+    set-ups are seeded as the route's (``krylov.seeded``: pyamg's spectral-radius estimates start from
+    ``np.random.rand`` vectors; unseeded, two runs on two_boxes(10) differed by 1.1e-12 relative), so the
+    yardstick is the same hierarchy and the same bits in every run."""
     import pyamg
     import scipy.sparse as sp
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.amg import v_cycle
+    from cvxcontact.backends.krylov import seeded, v_cycle
 
     n = A.shape[0]
     t0, c0 = time.perf_counter(), time.process_time()
@@ -413,7 +416,8 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
     Kuu = Kr[u_idx][:, u_idx].tocsr()
     if Kuu.shape[0] % 3 == 0:
         Kuu = Kuu.tobsr(blocksize=(3, 3))
-    ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric", max_coarse=30)   # blocks of 6 dofs
+    with seeded():                           # pyamg's spectral-radius estimates start from random vectors
+        ml_u = pyamg.smoothed_aggregation_solver(Kuu, B=B, symmetry="symmetric", max_coarse=30)   # blocks of 6 dofs
     its = []
     cb = lambda _x=None: its.append(1)  # noqa: E731
     if len(p_idx) == 0:
@@ -421,7 +425,8 @@ def amg_bonded(problem, A, G, rhs, sizes, tol=1e-10, preconditioner="triangular"
                             callback=cb)
     else:
         Kpp = -Kr[p_idx][:, p_idx].tocsr()                       # the Gauss rows were negated (quasi-definite)
-        ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=500)
+        with seeded():
+            ml_p = pyamg.smoothed_aggregation_solver(Kpp, symmetry="symmetric", max_coarse=500)
         Pu, Pp = v_cycle(ml_u), v_cycle(ml_p)
 
         Kup = Kr[u_idx][:, p_idx].tocsr()

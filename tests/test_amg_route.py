@@ -71,9 +71,9 @@ def test_staged_solves_tighten_only_while_the_signs_hold(monkeypatch):
 
     calls, system = [], amg.KrylovContact._system
 
-    def traced(self, active, F, g, x_start, rtol=amg.RTOL):
+    def traced(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         calls.append((active.tobytes(), rtol))
-        return system(self, active, F, g, x_start, rtol)
+        return system(self, active, F, g, x_start, rtol, verdict)
 
     monkeypatch.setattr(amg.KrylovContact, "_system", traced)
     ladder = amg.STEP_RTOLS + (amg.RTOL,)
@@ -164,10 +164,10 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
         seen.append(out.stop.name if isinstance(out, Declined) else "settled")
         return out
 
-    def wrong_when_loose(self, active, F, g, x_start, rtol=amg.RTOL):
+    def wrong_when_loose(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         if rtol != amg.RTOL:
             return np.zeros(self.n), -np.ones(self.m)
-        return system(self, active, F, g, x_start, rtol)
+        return system(self, active, F, g, x_start, rtol, verdict)
 
     monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loose)
@@ -510,6 +510,78 @@ def test_loose_gmres_solves_of_the_route_apply_no_preconditioner_for_their_updat
     tight = [(i, a) for rtol, i, a in seen if rtol == amg.RTOL and 0 < i <= amg.GMRES_RESTART]
     assert loose and tight                     # measured (iterations, applications): (2, 2) ... (4, 4); (11, 12)
     assert all(a == i for i, a in loose) and all(a == i + 1 for i, a in tight)
+
+
+def test_gmres_stops_where_its_iterate_is_settled():
+    """``gmres(settled=...)``: asked after each iteration k <= keep of the first cycle with the iterate x_k, a True
+    answer returns x_k at once: the bits of the same solve stopped by ``maxiter=k`` (the same update), whatever its
+    residual; never asked beyond ``keep``. Nonsymmetric system, Jacobi preconditioner."""
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends.amg import gmres
+
+    rng = np.random.default_rng(5)
+    n = 80
+    K = sp.csr_matrix(np.diag(rng.uniform(1.0, 50.0, n)) + rng.normal(0.0, 0.5, (n, n)))
+    b = rng.normal(size=n)
+    M = spla.LinearOperator((n, n), matvec=lambda r: r / K.diagonal(), dtype=float)
+    for stop in (1, 3, 6):
+        asked = []
+
+        def settled(x, asked=asked, stop=stop):
+            asked.append(np.array(x))
+            return len(asked) == stop
+
+        x = gmres(K, b, np.zeros(n), M, 1e-12, settled=settled, keep=8)
+        assert len(asked) == stop and np.array_equal(x, asked[-1])
+        assert np.array_equal(x, gmres(K, b, np.zeros(n), M, 1e-12, maxiter=stop, keep=8))
+        assert np.linalg.norm(b - K @ x) > 1e-12 * np.linalg.norm(b)
+    asked = []
+    x = gmres(K, b, np.zeros(n), M, 1e-12, settled=lambda x: asked.append(1) and False, keep=4)
+    assert len(asked) == 4 and np.linalg.norm(b - K @ x) <= 1e-12 * np.linalg.norm(b)
+
+
+@pytest.mark.parametrize("make", [lambda: two_boxes(6), lambda: _elastic_boxes(1e9, n=12)],
+                         ids=["pzt-on-aluminium-gmres", "aluminium-cg"])
+def test_loose_solves_stop_once_two_iterates_agree_on_the_next_set(make, monkeypatch):
+    """A loose solve (``STEP_RTOLS``) of a set whose signs fail stops at the first iteration whose iterate implies
+    the same next set as the iterate before it (``SETTLE``), and the step moves to that set; a solve whose
+    iterates never agree so meets its tolerance; the answer's solve (RTOL) never asks. The answer is the one
+    found with the loose solves run to their tolerances, and the sparse route's."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    calls, system = [], amg.KrylovContact._system
+
+    def traced(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        asked = []
+
+        def told(x, y):
+            asked.append(verdict(x, y))
+            return asked[-1]
+        out = system(self, active, F, g, x_start, rtol, told)
+        calls.append((rtol, asked, None if out is None else verdict(*out)))
+        return out
+
+    monkeypatch.setattr(amg.KrylovContact, "_system", traced)
+    scene = make()
+    a = cc.solve(scene, method="amg")
+    early = 0
+    for rtol, asked, final in calls:
+        same = [k for k in range(1, len(asked)) if asked[k] is not None and asked[k - 1] is not None
+                and np.array_equal(asked[k], asked[k - 1])]
+        if rtol == amg.RTOL:
+            assert not asked
+        elif same:                                              # stopped at the first agreement, and moved there
+            assert same[0] == len(asked) - 1 and np.array_equal(final, asked[-1])
+            early += 1
+    assert early >= 1                                           # measured 1 (GMRES), 3 (CG)
+    monkeypatch.setattr(amg, "SETTLE", False)
+    b = cc.solve(scene, method="amg")
+    assert a.ok and b.ok and a.info.method == b.info.method == "amg"
+    assert np.array_equal(a.contact.active, b.contact.active)
+    fields_agree(a, b, 1e-8)                                   # measured 1.1e-10, 9.3e-11 (Krylov to 1e-10)
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)    # measured 1.5e-10, 3.2e-10
 
 
 def test_v_cycle_is_pyamgs_preconditioner_without_its_residual_norms(monkeypatch):

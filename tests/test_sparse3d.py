@@ -98,6 +98,22 @@ def test_bench_amg_yardstick_runs_the_routes_v_cycle(scene, request, monkeypatch
     assert rel(out[1], z[:A.shape[0]]) < 1e-6              # measured 1.9e-10, 1.3e-10 (5 kernels; Krylov to 1e-10)
 
 
+def test_bench_amg_yardstick_is_seeded(boxes):
+    """The bonded AMG yardstick's set-ups are seeded (pyamg's spectral-radius estimates start from random vectors):
+    two runs from different global random states give the same bits (unseeded: 1.5e-12 relative apart on these
+    boxes), and the caller's random stream is left as it was."""
+    pytest.importorskip("pyamg")
+    b = benchmark("harness")
+    p = cc.ContactSolver(boxes).problem
+    _, rhs, A, G, sizes = b.bonded_system(p)
+    runs = []
+    for seed in (1, 2):
+        np.random.seed(seed)
+        runs.append(b.amg_bonded(p, A, G, rhs, sizes))
+        assert np.random.rand() == np.random.RandomState(seed).rand()         # the stream untouched
+    assert runs[0][2] == runs[1][2] and np.array_equal(runs[0][1], runs[1][1])
+
+
 def test_bench_elimination_refuses_rows_sharing_their_dofs():
     """gamma3-like rows (two rows on one dof, none of its own) cannot be eliminated: None, not a wrong system."""
     import scipy.sparse as sp

@@ -29,9 +29,10 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   (P1, 3.1e4 unknowns; answers agreeing to 8e-11 relative): 34 CG iterations in all and one set-up, against 100
   with the bare V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as
   much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
-  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous answer. A set still changing is
-  solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold,
-  so only the last set is solved to ``RTOL``.
+  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous
+  answer. A set still changing is solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to
+  ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and a loose solve whose set
+  fails its signs stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
@@ -55,7 +56,6 @@ from __future__ import annotations
 
 import importlib.util
 import time
-from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
@@ -64,6 +64,8 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError
 from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
+from .krylov import GMRES_RESTART, gmres, v_cycle
+from .krylov import seeded as _seeded
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
@@ -88,85 +90,28 @@ already hold at 1e-4 it saves nothing and costs a restart: tests/scenes3d.py two
 48 -> 50, 58 -> 61, 62 -> 63 iterations, two_boxes(elastic=True) (2.0e4-9.4e4) 27 -> 28, 35 -> 37, 40 -> 42, the
 same sets and answers to 2e-10 (the review of h-sigfast)."""
 
+SETTLE = True
+"""Whether a loose solve (:data:`STEP_RTOLS`) stops before its tolerance as soon as two consecutive Krylov iterates
+imply the same next active set, their signs failing (:meth:`KrylovContact._system` ``verdict``; GMRES: iterates
+within :data:`LOOSE_KEEP`, formed from the kept vectors with no application of the preconditioner). Such an answer
+only picks the next set, as every loose one; the sets whose signs hold still tighten to RTOL, so the answer keeps
+its guarantee. Measured on two_boxes "sigma1" (PZT-5A on aluminium, GMRES): 1.5e5 unknowns 6 steps and 71 Krylov
+iterations without it, 8 and 67 with it; 4.1e5: 11 and 89, 10 and 84, the same final set; two aluminium boxes
+(CG; tests/test_amg_route.py ``_elastic_boxes(1e9, n=16)``): 7 steps and 58 iterations, 5 and 38, where without
+it the loose steps cycled (a set's 1e-2 solve pointed to a set whose 1e-4 solve pointed back) and were retried
+on tight solves (benchmarks/results/bench3d_scale.md)."""
+
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
-LOOSE_KEEP = 10
+LOOSE_KEEP = 16
 """Preconditioned Krylov vectors a loose GMRES solve (:data:`STEP_RTOLS`) keeps (:func:`gmres` ``keep``), so that
-its answer costs no application of the preconditioner beyond its iterations' (10 N doubles at most; not kept by
-the answer's solve, RTOL, the longest basis). Measured on two_boxes "sigma1" (PZT-5A on aluminium, 8.7e4
-unknowns): the loose solves take 0-8 iterations each, and each saved application is one iteration's V-cycles."""
-
-GMRES_RESTART = 100
-"""Krylov vectors kept by GMRES (piezoelectric bodies) before it restarts: (GMRES_RESTART + 1) N doubles at
-most."""
-
-
-def gmres(K, b, x0, M, rtol: float, restart: int = GMRES_RESTART, maxiter: int = 2000, callback=None,
-          keep: int = 0) -> np.ndarray:
-    """x with ||b - K x|| <= rtol ||b|| (2-norms) by right-preconditioned restarted GMRES (Saad, Iterative
-    Methods for Sparse Linear Systems, 2003, Alg. 9.5; classical Gram-Schmidt applied twice), from ``x0``,
-    ``M`` the preconditioner (a fixed linear operator). Right preconditioning minimises the true residual, so
-    the stopping test is on ||b - K x|| itself (checked on the recomputed residual at each restart). Returns
-    the last iterate if the test is not met after ``maxiter`` iterations or three restarts whose estimate met it
-    (rounding: the caller checks the residual). ``callback()`` is called once per iteration.
-
-    ``keep``: the first ``keep`` preconditioned basis vectors z_j = M v_j of a cycle are kept (``keep`` N doubles
-    more), so that its update x += M V y = Z y + M (V[keep:] y[keep:]) applies M only to the basis beyond them:
-    a cycle of at most ``keep`` iterations (a loose solve, :data:`STEP_RTOLS`) costs one application of M per
-    iteration instead of one more. The same x in exact arithmetic (M linear)."""
-    n = b.shape[0]
-    x = np.array(x0, dtype=float)
-    target = rtol * np.linalg.norm(b)
-    V = np.empty((restart + 1, n))                  # the Arnoldi basis (pages are touched only when used)
-    keep = min(max(int(keep), 0), restart)
-    Z = np.empty((keep, n))                         # M V[:keep] of the current cycle
-    done, short = 0, 0
-    while done < maxiter:
-        r = b - K @ x
-        beta = np.linalg.norm(r)
-        if beta <= target or short == 3:            # met, or the recurrence's estimate met it 3 times but
-            break                                   # the recomputed residual did not (rounding: give up)
-        V[0] = r / beta
-        H = np.zeros((restart + 1, restart))
-        cs, sn = np.zeros(restart), np.zeros(restart)
-        g = np.zeros(restart + 1)
-        g[0] = beta
-        k = 0
-        while k < restart and done < maxiter:
-            z = M @ V[k]
-            if k < keep:
-                Z[k] = z
-            w = K @ z
-            h = V[:k + 1] @ w
-            w -= V[:k + 1].T @ h
-            h2 = V[:k + 1] @ w
-            w -= V[:k + 1].T @ h2
-            H[:k + 1, k] = h + h2
-            H[k + 1, k] = hn = np.linalg.norm(w)
-            if hn > 0.0:
-                V[k + 1] = w / hn
-            for i in range(k):                      # the previous Givens rotations on the new column
-                H[i, k], H[i + 1, k] = cs[i] * H[i, k] + sn[i] * H[i + 1, k], -sn[i] * H[i, k] + cs[i] * H[i + 1, k]
-            d = np.hypot(H[k, k], H[k + 1, k])
-            cs[k], sn[k] = (H[k, k] / d, H[k + 1, k] / d) if d > 0.0 else (1.0, 0.0)
-            H[k, k], H[k + 1, k] = d, 0.0
-            g[k], g[k + 1] = cs[k] * g[k], -sn[k] * g[k]
-            k += 1
-            done += 1
-            if callback is not None:
-                callback()
-            if abs(g[k]) <= target or hn == 0.0:      # converged, or the Krylov space is invariant
-                break
-        if k == 0:
-            break
-        short += abs(g[k]) <= target
-        y = np.linalg.solve(np.triu(H[:k, :k]), g[:k]) if np.all(np.diag(H[:k, :k]) != 0.0) else \
-            np.linalg.lstsq(np.triu(H[:k, :k]), g[:k], rcond=None)[0]
-        j = min(k, keep)
-        x += Z[:j].T @ y[:j]
-        if k > j:
-            x += M @ (V[j:k].T @ y[j:])
-    return x
+an answer within that many iterations costs no application of the preconditioner beyond its iterations', and its
+iterates can be formed cheaply for :data:`SETTLE` (16 N doubles at most, beside the basis of as many vectors;
+not kept by the answer's solve, RTOL, the longest basis: 24-43 vectors at 1.5e5-8.2e5 unknowns). Measured on
+two_boxes "sigma1" (PZT-5A on aluminium) with the four loose stages: the stages 1e-1 to 1e-4 take 0-9 iterations,
+the stage 1e-6 10-15 (12 and 10 at 1.5e5, 13-14 at 4.1e5, 15 at 8.2e5; benchmarks/results/bench3d_scale.md), which
+with 10 kept vectors applied the preconditioner once more for their update; each saved application is one
+iteration's V-cycles."""
 
 
 def available() -> bool:
@@ -315,50 +260,13 @@ def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
 
 
 
-def v_cycle(ml) -> spla.LinearOperator:
-    """One V-cycle of the hierarchy ``ml`` (a pyamg multilevel solver: its ``levels``, each with ``A``, ``R``,
-    ``P`` and smoothers, and ``coarse_solver``) from a zero guess, as an operator: the arrays of
-    ``ml.aspreconditioner(cycle="V")`` (pyamg's cycle: pre-smoothing, the coarse correction of the restricted
-    residual, post-smoothing, level by level), without the two residual norms ||b - A x|| of the finest level
-    that pyamg's ``solve`` computes around its one cycle (its stopping test, read by no preconditioner): two
-    finest-level products per application: 13.7-14.5 % of a displacement V-cycle's CPU seconds at 1.5e5 unknowns,
-    11-14 % of a two_boxes "sigma1" solve's at 1.5e5 and 4.1e5 (benchmarks/results/bench3d_scale.md)."""
-    levels, coarse = ml.levels, ml.coarse_solver
+class _Settled(Exception):
+    """Raised from CG's callback to stop a loose solve whose verdict has settled (:data:`SETTLE`); ``r``: the
+    iterate."""
 
-    def cycle(lvl, x, b):
-        A = levels[lvl].A
-        levels[lvl].presmoother(A, x, b)
-        coarse_b = levels[lvl].R @ (b - A @ x)
-        coarse_x = np.zeros_like(coarse_b)
-        if lvl == len(levels) - 2:
-            coarse_x[:] = coarse(levels[-1].A, coarse_b)
-        else:
-            cycle(lvl + 1, coarse_x, coarse_b)
-        x += levels[lvl].P @ coarse_x
-        levels[lvl].postsmoother(A, x, b)
-
-    def apply(b):
-        b = np.ravel(np.asarray(b, dtype=np.result_type(b, levels[0].A.dtype)))   # as pyamg's solve: upcast
-        if len(levels) == 1:
-            return coarse(levels[0].A, b)
-        x = np.zeros_like(b)
-        cycle(0, x, b)
-        return x
-
-    return spla.LinearOperator(levels[0].A.shape, matvec=apply, dtype=levels[0].A.dtype)
-
-
-@contextmanager
-def _seeded(seed: int = 0):
-    """NumPy's global random state seeded for the block (and restored after it): pyamg starts its spectral-radius
-    estimates from ``np.random.rand`` vectors, so an unseeded set-up gives a hierarchy, and answers, that differ
-    from run to run (measured: 5e-13 relative on two_boxes); the caller's random stream is left as it was."""
-    state = np.random.get_state()
-    np.random.seed(seed)
-    try:
-        yield
-    finally:
-        np.random.set_state(state)
+    def __init__(self, r):
+        super().__init__()
+        self.r = r
 
 
 class Reduced(spla.LinearOperator):
@@ -553,8 +461,11 @@ class KrylovContact:
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b
 
-    def _system(self, active, F, g, x_start, rtol=RTOL):
-        """(x, y) with the rows of ``active`` closed, or None if the Krylov solve misses ``rtol``."""
+    def _system(self, active, F, g, x_start, rtol=RTOL, verdict=None):
+        """(x, y) with the rows of ``active`` closed, or None if the Krylov solve misses ``rtol``. ``verdict(x,
+        y)``: the next active set an answer implies (None: its signs hold); given, a loose solve (rtol > RTOL)
+        stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`), its residual then
+        above rtol (an answer of such a solve only picks the next set)."""
         n = self.n
         rows = np.flatnonzero(active)
         slaves, piv = self.dof[rows], self.coef[rows]
@@ -572,21 +483,42 @@ class KrylovContact:
         r0[slaves] = 0.0
         its = []
         count = lambda _x=None: its.append(1)  # noqa: E731
+
+        def answer(r):
+            x = T @ r + x_fix
+            y = np.zeros(self.m)
+            y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
+            return x, y
+
+        settled, stopped = None, [False]           # stopped: the last iterate asked was settled (returned)
+        if verdict is not None and rtol > RTOL and SETTLE:
+            last = [None]
+
+            def settled(r):                      # the same next set implied by this iterate and the one before
+                new = verdict(*answer(r))
+                stopped[0] = new is not None and last[0] is not None and np.array_equal(new, last[0])
+                last[0] = new
+                return stopped[0]
         nb = np.linalg.norm(b)
         if nb == 0.0:
             r = np.zeros(n)
         elif self.ml_p is None:
-            r, info = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
-                              callback=count)
+            def watch(xk):
+                count()
+                if settled is not None and settled(xk):
+                    raise _Settled(np.array(xk))
+            try:
+                r, _ = spla.cg(K, b, x0=r0, M=self._preconditioner[1], rtol=rtol, atol=0.0, maxiter=1000,
+                               callback=watch)
+            except _Settled as stop:
+                r = stop.r
         else:
-            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0)
+            r = gmres(K, b, r0, self._preconditioner[1], rtol, callback=count, keep=LOOSE_KEEP if rtol > RTOL else 0,
+                      settled=settled)
         self.iterations += len(its)
-        if nb > 0.0 and not np.linalg.norm(b - K @ r) <= rtol * nb:
+        if nb > 0.0 and not stopped[0] and not np.linalg.norm(b - K @ r) <= rtol * nb:
             return None
-        x = T @ r + x_fix
-        y = np.zeros(self.m)
-        y[rows] = (F[slaves] - self._slave_rows[1] @ x) / piv
-        return x, y
+        return answer(r)
 
     def release(self) -> None:
         """Drops what a solve builds from the blocks and a re-solve builds again (peak memory): S, the stacked
@@ -616,17 +548,24 @@ class KrylovContact:
         def step(active, stages):
             last[0] = active
             count[0] += 1
+
+            def verdict(x, y):                   # the next set the answer (x, y) implies, None if its signs hold
+                s = self.G @ x - g
+                scale = np.abs(self.G) @ np.abs(x) + np.abs(g) + self.w * np.abs(y)
+                scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny))
+                if signs_hold(y, s, active & movable, self.w, scale):
+                    return None
+                return (y * self.w + s > 0) & movable
+
             for rtol in stages:                  # loose solves pick the next set; the answer is a tight one
-                out = self._system(active & movable, F, g, self.x, rtol)
+                out = self._system(active & movable, F, g, self.x, rtol, verdict)
                 if out is None:
                     return None
                 x, y = out
                 self.x = x
-                s = self.G @ x - g
-                scale = np.abs(self.G) @ np.abs(x) + np.abs(g) + self.w * np.abs(y)
-                scale = np.maximum(scale, 1e-14 * max(float(scale.max(initial=0.0)), np.finfo(float).tiny))
-                if not signs_hold(y, s, active & movable, self.w, scale):
-                    return (x, y), (y * self.w + s > 0) & movable
+                new = verdict(x, y)
+                if new is not None:
+                    return (x, y), new
             return (x, y), None
 
         for stages in (STEP_RTOLS + (RTOL,), (RTOL,)):   # steps that cycle on loose solves: retried on tight ones

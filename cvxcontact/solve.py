@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
@@ -39,6 +39,11 @@ log = logging.getLogger(__name__)
 
 DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
+
+BATCH = 8
+"""The load cases whose forward sweeps :meth:`ContactSolver.solve_many` batches at a time (kept: 16 bytes per
+unknown and load case; two_blocks(560)'s upper block, 471,240 unknowns under PARDISO: 1, 2, 4, 8 loads in 66, 39,
+25, 18 ms of CPU per load, ``benchmarks/resolve_batch_ab.py``)."""
 
 ESTIMATES = {"residual": estimate_error,
              "equilibrated": lambda sol, cache=None, fingerprints=None: (error_bound(sol), "")}
@@ -216,11 +221,38 @@ class ContactSolver:
 
     def solve(self, scene=None) -> Solution:
         """Solve ``scene`` (default: the scene given at construction); see the class docstring."""
-        timings, self._setup = dict(self._setup), {}
         t0 = time.perf_counter()
-        self.problem = self.problem.with_loads(self._given if scene is None else scene)
-        problem = self.problem
-        timings["loads"] = time.perf_counter() - t0
+        problem = self.problem.with_loads(self._given if scene is None else scene)
+        return self._solve(problem, time.perf_counter() - t0)
+
+    def solve_many(self, scenes: Sequence[Scene]) -> list[Solution]:
+        """Solve each of ``scenes`` (load cases of the prepared geometry, each as :meth:`solve` would, in order),
+        the forward sweeps of up to :data:`BATCH` of them at a time batched on the condensed routes: per body one
+        sweep of their loads as the columns of one right-hand side, its factors read once for all
+        (:meth:`~cvxcontact.backends.interface.Condensation.prepare`; timed as ``batched_sweeps`` in the
+        stage timings of the first of them). The answers are :meth:`solve`'s to rounding (a batched sweep sums
+        in another order), checked and estimated as :meth:`solve`'s. Every scene is checked against the
+        prepared geometry before anything is solved (SceneError, naming what differs)."""
+        scenes = list(scenes)
+        t0 = time.perf_counter()
+        problems = [self.problem.with_loads(s) for s in scenes]
+        each = (time.perf_counter() - t0) / max(len(scenes), 1)
+        out, prepared = [], 0
+        for i, problem in enumerate(problems):
+            if i >= prepared:
+                t1 = time.perf_counter()
+                if self._cache.prepare(problems[i:i + BATCH]):      # (none before the first condensed solve)
+                    prepared = i + BATCH
+                    self._setup["batched_sweeps"] = time.perf_counter() - t1
+            out.append(self._solve(problem, each))
+        return out
+
+    def _solve(self, problem, loads: float) -> Solution:
+        """Solve the load case ``problem`` (:meth:`DiscreteProblem.with_loads` of the prepared one, which took
+        ``loads`` seconds)."""
+        timings, self._setup = dict(self._setup), {}
+        self.problem = problem
+        timings["loads"] = loads
         raw = run(self.method, problem, self._cache, self.settings, timings)
         t0 = time.perf_counter()
         self._cache.start = None                                    # a start serves the first solve only

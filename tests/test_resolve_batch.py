@@ -1,5 +1,6 @@
 """Several load cases through a prepared ContactSolver at once (ContactSolver.solve_many): the forward sweeps of
-each body batched as the columns of one right-hand side (Condensation.prepare). The oracles: the same load cases
+each body batched as the columns of one right-hand side (Condensation.prepare), and the backward sweeps of the
+fields held until every load case of the batch is finished (Condensation.defer, flush). The oracles: the same load cases
 solved one at a time by ContactSolver.solve (the batched sweep sums in another order: the same answers to
 rounding), a fresh solver's answer for a load case outside the batch, and the number and width of the sweeps."""
 
@@ -27,13 +28,18 @@ def _fields(sol):
     return np.concatenate([np.ravel(x) for x in sol.u] + [np.ravel(x) for x in sol.phi if x is not None])
 
 
-def _sweeps(solver):
-    """Wrap each body's factor.forward to record the columns of every sweep (per body, a list)."""
+def _sweeps(solver, name="forward"):
+    """Wrap each body's factor.forward (or backward) to record the columns of every sweep (per body, a list; False
+    for a single vector)."""
     seen = []
     for c in solver.cache.condensation.bodies:
-        calls, forward = [], c.factor.forward
-        c.factor.forward = lambda rhs, calls=calls, forward=forward: (calls.append(np.ndim(rhs) == 2 and
-                                                                                   np.shape(rhs)[1]) or forward(rhs))
+        calls, sweep = [], getattr(c.factor, name)
+
+        def counted(*args, calls=calls, sweep=sweep):
+            rhs = args[-1]                                       # forward(F), backward(fwd, v)
+            calls.append(np.ndim(rhs) == 2 and np.shape(rhs)[1])
+            return sweep(*args)
+        setattr(c.factor, name, counted)
         seen.append(calls)
     return seen
 
@@ -44,7 +50,7 @@ def batched(request):
     one, many = (cc.ContactSolver(two_blocks(), method="condensed", factorization=request.param) for _ in range(2))
     one.solve()
     many.solve()
-    sweeps = _sweeps(many)
+    sweeps = _sweeps(many), _sweeps(many, "backward")
     scenes = _cases(4)
     return request.param, many, [one.solve(s) for s in scenes], many.solve_many(scenes), sweeps
 
@@ -53,7 +59,7 @@ def test_solve_many_answers_as_solve_one_at_a_time(batched):
     """u, phi, the contact forces, the checks and the estimate of each load case as solve()'s, relative, worst
     over the default kernels and OPENBLAS_CORETYPE Haswell, Nehalem, Prescott, Sandybridge (measured: superlu
     u, phi 1.6e-15, forces 3.4e-13, estimate 5.4e-15, indicators 4.1e-13 (identical under the default kernels
-    and Sandybridge); pardiso 3.4e-15, 1.0e-12, 1.6e-14, 1.2e-12 (Nehalem): the interface finish carries the
+    and Sandybridge); pardiso 3.6e-15, 1.0e-12, 1.6e-14, 1.2e-12 (Nehalem): the interface finish carries the
     sweeps' rounding into the forces; asserted to 1e-12, 1e-9, 1e-11, 1e-9)."""
     _, _, one, many, _ = batched
     for a, b in zip(many, one):
@@ -67,12 +73,15 @@ def test_solve_many_answers_as_solve_one_at_a_time(batched):
 
 
 def test_the_batch_sweeps_each_loaded_body_once(batched):
-    """The upper block's four loads in one sweep of four columns and no other; the lower block, unloaded in
-    every load case, reuses its last sweep (none made); the batch's time is in the first load case's stages."""
-    _, _, _, many, sweeps = batched
-    upper, lower = sweeps
-    assert upper == [4] and lower == []
-    assert "batched_sweeps" in many[0].info.timings and "batched_sweeps" not in many[1].info.timings
+    """Forward: the upper block's four loads in one sweep of four columns and no other; the lower block, unloaded
+    in every load case, reuses its last sweep (none made). Backward: each body's four fields in one sweep of four
+    columns (the contact forces differ in each load case). The batches' times are in the first load case's
+    stages. Each answer is finite (no field left unfilled)."""
+    _, _, _, many, (forward, backward) = batched
+    assert forward == [[4], []] and backward == [[4], [4]]
+    for key in ("batched_sweeps", "batched_backward"):
+        assert key in many[0].info.timings and key not in many[1].info.timings
+    assert all(np.isfinite(_fields(sol)).all() for sol in many)
 
 
 @pytest.mark.parametrize("factorization", FACTORIZATIONS)
@@ -86,7 +95,7 @@ def test_a_load_case_outside_the_batch_is_swept_afresh(factorization):
     other = _cases(1, start=7)[0]
     again = solver.solve(other)
     fresh = cc.ContactSolver(other, method="condensed", factorization=factorization).solve()
-    assert sweeps[0] == [False]
+    assert sweeps[0] == [False]                                             # one single forward sweep
     assert rel(_fields(again), _fields(fresh)) < 1e-12 and rel(again.contact.force, fresh.contact.force) < 1e-12
 
 

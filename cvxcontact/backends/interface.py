@@ -48,6 +48,7 @@ class Condensation:
         self.sweeps = None
         self._loaded = [None] * len(self.bodies)   # per body (F, its forward sweep) of the last load case
         self._batched = [[] for _ in self.bodies]  # per body [(F, its forward sweep)] of the prepared load cases
+        self._deferred = None                      # [(x, body, sweep, v)] of the held backward sweeps (defer)
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
@@ -155,7 +156,36 @@ class Condensation:
             y = y + dy
             v = [vk - c.factor.schur_solve(c.jump.T @ (E.T @ dy)) for vk, c in zip(v, self.bodies)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        if self._deferred is not None:            # the fields filled in by flush(): NaN until then
+            x = [np.full(c.factor.n, np.nan) for c in self.bodies]
+            self._deferred.extend((xk, k, f, vk) for k, (xk, f, vk) in enumerate(zip(x, self.sweeps, v)))
+            return (*split(self.bodies, x, problem.blocks), y)
         return (*self.invert_gamma(problem, v, timings), y)
+
+    def defer(self) -> None:
+        """Hold the backward sweeps of :meth:`invert_closed` until :meth:`flush`: the fields it hands out are
+        arrays that :meth:`flush` fills (NaN until then), so that the sweeps of several load cases run as the
+        columns of one right-hand side (``ContactSolver.solve_many``; its route reads no field before the
+        read-back)."""
+        self._deferred = []
+
+    def flush(self) -> float:
+        """Make the backward sweeps held since :meth:`defer` into the fields handed out (per body one sweep of all
+        of them as the columns of one right-hand side; one alone, or a body whose factors were freed, one at a time:
+        the single sweep's numbers), and stop holding; the seconds it took."""
+        t0 = time.perf_counter()
+        pending, self._deferred = self._deferred or [], None
+        for k, c in enumerate(self.bodies):
+            mine = [(x, f, v) for x, j, f, v in pending if j == k]
+            if len(mine) == 1 or isinstance(c.factor, Released):
+                for x, f, v in mine:
+                    x[:] = c.factor.backward(f, v)
+            elif mine:
+                X = c.factor.backward(Forward(None, np.column_stack([f.state for _, f, _ in mine])),
+                                      np.column_stack([v for _, _, v in mine]))
+                for j, (x, _, _) in enumerate(mine):
+                    x[:] = X[:, j]
+        return time.perf_counter() - t0
 
     def invert_gamma(self, problem, v, timings):
         """(u, phi) of every body with its Gamma values ``v`` (per body) given, for the last :meth:`apply`."""

@@ -1,5 +1,6 @@
 """Load cases through a prepared ContactSolver one at a time (``solver.solve(scene)``) and batched
-(``solver.solve_many(scenes)``: the forward sweeps of every body batched, ``Condensation.prepare``), interleaved
+(``solver.solve_many(scenes)``: the forward and backward sweeps of every body batched, ``Condensation.prepare``,
+``defer``, ``flush``), interleaved
 in ONE process.
 
 Scene: ``apps.demo.two_blocks(nx)`` (as benchmarks/bench_resolve.py). The first solve once, then ``rounds`` rounds,
@@ -7,7 +8,7 @@ each solving ``cases`` load cases one at a time and ``cases`` others batched (or
 loads x 0.37 and its traction x 1 + i / 1000 with i distinct over every load case of the run, so that no side reuses
 a sweep of the other). Prints the medians over the rounds of the process CPU seconds per load case, their ratio and
 share of the first solve; then the stages (``sol.info.timings``, wall s, medians over the last round's load cases;
-the batch's sweep under ``batched_sweeps``, spread over its cases); then the answers of ``solve_many`` against
+the batch's sweeps under ``batched_sweeps`` and ``batched_backward``, spread over its cases); then the answers of ``solve_many`` against
 ``solve`` on the same load cases (max |a - b| / max |b| of u, phi, the contact forces; the estimate's total and
 indicators) and ``ok``. Also the multi-column sweep alone on the upper block: 1, 2, 4, 8 right-hand sides, CPU ms
 per right-hand side (forward, backward; medians of 5).
@@ -64,8 +65,9 @@ def main():
     for side, ts in stages.items():
         keys = sorted({k for x in ts for k in x})
         spread = {k: statistics.median([x.get(k, 0.0) for x in ts]) for k in keys}
-        if "batched_sweeps" in keys:
-            spread["batched_sweeps"] = sum(x.get("batched_sweeps", 0.0) for x in ts) / len(ts)
+        for key in ("batched_sweeps", "batched_backward"):
+            if key in keys:
+                spread[key] = sum(x.get(key, 0.0) for x in ts) / len(ts)
         print(f"  stages {side} (wall s): " + ", ".join(f"{k} {v:.3f}" for k, v in spread.items()))
     scenes = load_cases()
     a = [solver.solve(s) for s in scenes]

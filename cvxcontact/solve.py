@@ -41,9 +41,11 @@ DEFAULT_TOL = 1e-6
 """Default tolerance of the mixed-formulation checks."""
 
 BATCH = 8
-"""The load cases whose forward sweeps :meth:`ContactSolver.solve_many` batches at a time (kept: 16 bytes per
-unknown and load case; two_blocks(560)'s upper block, 471,240 unknowns under PARDISO: 1, 2, 4, 8 loads in 66, 39,
-25, 18 ms of CPU per load, ``benchmarks/resolve_batch_ab.py``)."""
+"""The load cases whose sweeps :meth:`ContactSolver.solve_many` batches at a time (kept until the batch is read
+back: each load and its forward sweep, 16 bytes per unknown and load case; the backward sweep forms three arrays of 8
+bytes per unknown and load case at once). two_blocks(560)'s upper block, 471,240 unknowns under PARDISO: a forward
+sweep of 1, 2, 4, 8 loads in 66, 51, 25, 18 ms of CPU per load, a backward one in 50, 41, 22, 14
+(``benchmarks/resolve_batch_ab.py``)."""
 
 ESTIMATES = {"residual": estimate_error,
              "equilibrated": lambda sol, cache=None, fingerprints=None: (error_bound(sol), "")}

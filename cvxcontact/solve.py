@@ -238,12 +238,14 @@ class ContactSolver:
         another order), checked and estimated as :meth:`solve`'s. Every scene is checked against the prepared
         geometry before anything is solved (SceneError, naming what differs)."""
         scenes = list(scenes)
-        t0 = time.perf_counter()
-        problems = [self.problem.with_loads(s) for s in scenes]
-        each = (time.perf_counter() - t0) / max(len(scenes), 1)
+        for scene in scenes:
+            if not self.problem.accepts(scene):
+                self.problem.with_loads(scene)          # the SceneError naming what differs
         out: list = []
-        while len(out) < len(problems):
-            chunk = problems[len(out):len(out) + BATCH]
+        while len(out) < len(scenes):                   # the problems of one batch at a time (each holds its loads)
+            t0 = time.perf_counter()
+            chunk = [self.problem.with_loads(s) for s in scenes[len(out):len(out) + BATCH]]
+            each = (time.perf_counter() - t0) / len(chunk)
             t1 = time.perf_counter()
             if not self._cache.prepare(chunk):          # nothing kept yet: this one alone builds it
                 out.append(self._solve(chunk[0], each))

@@ -11,6 +11,7 @@ import numpy as np
 from .budget import Budget
 from .condensed import Compliance, condense, contact_dofs, quasi_definite_rhs
 from .conic import least_held_duals
+from .factor import Forward
 from .finish.lcp import closed_solve
 from .released import Released
 
@@ -46,6 +47,8 @@ class Condensation:
             # it whole; the finish of dependent rows reads a block of it (Compliance.keep) and passes whole=False
         self.sweeps = None
         self._loaded = [None] * len(self.bodies)   # per body (F, its forward sweep) of the last load case
+        self._batched = [[] for _ in self.bodies]  # per body [(F, its forward sweep)] of the prepared load cases
+        self._deferred = None                      # [(x, body, sweep, v)] of the held backward sweeps (defer)
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
@@ -77,14 +80,42 @@ class Condensation:
 
     def forward(self, k, F):
         """Body k's forward sweep of its scaled load F: the last load case's if F is bit for bit the same (a load
-        case that leaves this body's scaled loads as they were: the sweep would give the same numbers), else a
-        new sweep (kept with a copy of F: 8 bytes per unknown of the body)."""
+        case that leaves this body's scaled loads as they were: the sweep would give the same numbers), else the
+        one :meth:`prepare` batched for a load bit for bit F, else a new sweep (kept with a copy of F: 8 bytes per
+        unknown of the body)."""
         last = self._loaded[k]
         if last is not None and np.array_equal(last[0], F):
             return last[1]
-        sweep = self.bodies[k].forward(F)
+        sweep = next((s for G, s in self._batched[k] if np.array_equal(G, F)), None)
+        if sweep is None:
+            sweep = self.bodies[k].forward(F)
         self._loaded[k] = (np.array(F, dtype=float), sweep)
         return sweep
+
+    def prepare(self, problems) -> None:
+        """Batch the forward sweeps of the load cases ``problems`` (problems of this geometry and contact rows):
+        per body, one sweep of all their distinct scaled loads as the columns of one right-hand side (each
+        factor read once for all of them: the sweeps are bound by reading the factors), kept until the next call
+        for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of them. A batched
+        sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum in another
+        order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load case). A body
+        whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load at a time."""
+        for k, c in enumerate(self.bodies):
+            self._batched[k] = []
+            if isinstance(c.factor, Released):
+                continue
+            loads: list = []
+            for p in problems:
+                F = np.asarray(quasi_definite_rhs(p.blocks[k]), dtype=float)
+                last = self._loaded[k]
+                if not (last is not None and np.array_equal(last[0], F)) and not any(
+                        np.array_equal(G, F) for G in loads):
+                    loads.append(F)
+            if len(loads) < 2:                    # one load: the single sweep, as solve() makes it
+                continue
+            sweep = c.forward(np.column_stack(loads))
+            self._batched[k] = [(F, Forward(sweep.reduced[:, j].copy(), sweep.state[:, j]))
+                                for j, F in enumerate(loads)]
 
     def invert(self, problem, y, timings):
         """(u, phi) of every body under the contact forces ``y`` on the rows of the last :meth:`apply`."""
@@ -125,7 +156,36 @@ class Condensation:
             y = y + dy
             v = [vk - c.factor.schur_solve(c.jump.T @ (E.T @ dy)) for vk, c in zip(v, self.bodies)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
+        if self._deferred is not None:            # the fields filled in by flush(): NaN until then
+            x = [np.full(c.factor.n, np.nan) for c in self.bodies]
+            self._deferred.extend((xk, k, f, vk) for k, (xk, f, vk) in enumerate(zip(x, self.sweeps, v)))
+            return (*split(self.bodies, x, problem.blocks), y)
         return (*self.invert_gamma(problem, v, timings), y)
+
+    def defer(self) -> None:
+        """Hold the backward sweeps of :meth:`invert_closed` until :meth:`flush`: the fields it hands out are
+        arrays that :meth:`flush` fills (NaN until then), so that the sweeps of several load cases run as the
+        columns of one right-hand side (``ContactSolver.solve_many``; its route reads no field before the
+        read-back)."""
+        self._deferred = []
+
+    def flush(self) -> float:
+        """Make the backward sweeps held since :meth:`defer` into the fields handed out (per body one sweep of all
+        of them as the columns of one right-hand side; one alone, or a body whose factors were freed, one at a time:
+        the single sweep's numbers), and stop holding; the seconds it took."""
+        t0 = time.perf_counter()
+        pending, self._deferred = self._deferred or [], None
+        for k, c in enumerate(self.bodies):
+            mine = [(x, f, v) for x, j, f, v in pending if j == k]
+            if len(mine) == 1 or isinstance(c.factor, Released):
+                for x, f, v in mine:
+                    x[:] = c.factor.backward(f, v)
+            elif mine:
+                X = c.factor.backward(Forward(None, np.column_stack([f.state for _, f, _ in mine])),
+                                      np.column_stack([v for _, _, v in mine]))
+                for j, (x, _, _) in enumerate(mine):
+                    x[:] = X[:, j]
+        return time.perf_counter() - t0
 
     def invert_gamma(self, problem, v, timings):
         """(u, phi) of every body with its Gamma values ``v`` (per body) given, for the last :meth:`apply`."""

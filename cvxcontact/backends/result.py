@@ -206,6 +206,15 @@ class Cache:
         self.condensation = self.sparse = self.amg = self.active = None
         self.own: dict = {}
 
+    def prepare(self, problems) -> bool:
+        """Hand the coming load cases ``problems`` to what is kept for their contact rows: the condensation
+        batches their forward sweeps (:meth:`~cvxcontact.backends.interface.Condensation.prepare`; those on other
+        rows are left out). Whether a condensation was kept (none before the first solve of a condensed route)."""
+        if self.condensation is None:
+            return False
+        self.condensation.prepare([p for p in problems if p.lines.key() == self.key])
+        return True
+
     def matching(self, key) -> "Cache":
         """This cache, emptied first if it was filled for other contact rows than ``key``."""
         if key != self.key:

@@ -38,8 +38,11 @@ __all__ = ["side_multiplier"]
 def side_multiplier(stack, r) -> np.ndarray:
     """lambda_h at the stacked nodes of X_h of every pair of ``stack`` (the contact lines' stack: ``interfaces``,
     ``members``, ``offsets``) for the stacked row forces ``r`` (units of ``r`` per unit length or area), read once
-    per side where several pairs hold one (module docstring)."""
+    per side where several pairs hold one (module docstring). A single pair (``stack`` the pair itself): its own
+    ``multiplier``."""
     r = np.asarray(r, dtype=float)
+    if not hasattr(stack, "interfaces"):                             # one pair: its own
+        return stack.multiplier(r)
     pairs, at = stack.interfaces, stack.offsets
     parts = [r[at[i]:at[i + 1]] for i in range(len(pairs))]
     lam: list = [None] * len(pairs)

@@ -3,6 +3,8 @@ tests/test_partial_reach_pressure.py): flat obstacles under a strip of the part,
 faces' triangles at a vertex of the 3 x 3 x 1 box's bottom, obstacles that split the part along an oblique line,
 and the P2 nodes' consistent loads on that bottom."""
 
+from itertools import pairwise
+
 import numpy as np
 from hex_scenes import DELTA, SIDES, STEEL, H
 
@@ -82,5 +84,21 @@ def box_on_boxes(cuts=(0.4,), n=3):
     edges = (0.0, *cuts, 1.0)
     lows = [cc.Body(cc.box(x=(a, b), nx=max(1, round(5 * (b - a))), ny=2, nz=1, z=(-H, 0.0)), STEEL,
                     roller=SIDES, clamped="bottom", contact="top", name=f"lower {i}")
-            for i, (a, b) in enumerate(zip(edges, edges[1:]))]
+            for i, (a, b) in enumerate(pairwise(edges))]
     return cc.Scene(top, *lows, contacts=[cc.Contact(top, "bottom", low, "top") for low in lows])
+
+
+def block2d(obstacles):
+    """The 6 x 2 steel block [0, 1] x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its bottom
+    (one pair each)."""
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=6, ny=2), STEEL, roller=["left", "right"],
+                   displacement={"top": (None, -DELTA)}, contact="bottom")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
+
+
+def block3d(obstacles):
+    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its
+    bottom (one pair each)."""
+    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+                   displacement={"top": (None, None, -DELTA)}, contact="bottom")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])

@@ -5,7 +5,8 @@ A box pushed onto two boxes split at x = 0.4 under "gamma3": the rows at the ove
 unknowns, and the upper box's force at a node whose functions cross the cut is split between the two pairs as the
 solver leaves it (its force over the consistent load of the pair's overlap: up to 45 times), while the lower
 boxes' forces and the upper box's summed over the pairs are the consistent loads of the uniform pressure (measured
-<= 4e-15 apart). Each pair's own Riesz representer read that split: lambda_h from -1.1 p to 93 p (P1), 16 p (P2).
+<= 4e-15 apart). Each pair's own Riesz representer read that split: lambda_h from -5.2 p to 93.5 p (P1), -12.6 p
+to 16.3 p (P2).
 Read once, every pair reads the closed-form pressure.
 """
 

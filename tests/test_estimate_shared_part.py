@@ -97,6 +97,16 @@ def test_overlapping_obstacles_and_a_floor(kind, degree):
     _same_as_one(kind, "overlap and floor", degree)
 
 
+@pytest.mark.parametrize("split", ["both at 0.5", "overlap and floor"])
+def test_p2_lines_sharing_nodes(split):
+    """2D P2 lines that both reach a vertex (0.5), or x < 0.7, x >= 0.3 and a whole floor: each pair's function
+    lives on its own run, read once on the union run and shared so that the runs holding a segment sum to the
+    side's lambda_h there (``QuadraticInterface.shares``). Before each pair solved M lambda = r on its run from the
+    solver's split of the shared nodes' forces: contact traction 2.47 and 1.84 against norm^2 53.8 (default
+    kernels; 0 under Nehalem for "both at 0.5", where the split is even)."""
+    _same_as_one("block2d", split, 2)
+
+
 def test_p2_overlapping_strips():
     """3D P2 strips x < 0.6, x >= 0.4: each read its own split by the partial mass of its reach (contact traction
     4.59 against norm^2 53.8 before); read once on the union, the single floor's."""

@@ -10,10 +10,11 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
 - obstacles on one part (every pair of the group rigid, one side): the forces summed on the trace's nodes and
   lambda_h read by a copy of one of the pairs whose X_h is the nodes any of them reaches (``reaching``): the
   consistent mass of the part where they reach all of it, the law's weights (P1: r / w; 3D P2: the partial mass)
-  where they do not. Each pair reads lambda_h at its nodes over the number of the group's pairs reaching each
-  (:func:`_shares`): the estimate sums the pairs' functions, each node's basis function over the whole part, so
-  the sum is the side's lambda_h. 2D P2 pairs read their own run's P2 line (their function is 0 beyond it, so
-  shares at a run's end do not sum): there each pair keeps its own ``multiplier``.
+  where they do not (2D P2: the union run's P2 line; not a run: each pair keeps its own ``multiplier``). The
+  estimate sums the pairs' functions, so each pair reads its share of the side's lambda_h at its nodes: each
+  node's basis function lives on the whole part (P1, 3D P2), so the share is one over the number of the group's
+  pairs reaching the node; a 2D P2 pair's function lives on its run alone, so the shares are the run's
+  (``shares`` of the union: on each segment the runs holding it sum to 1).
 - two-body pairs of planar surfaces (3D) sharing a side (a body on several bodies): lambda_h in X_h of the
   group, the functions of every side on the pairs' nodes stacked (one column block per side, a shared side's
   functions read by each of its pairs), the pairs' masses block diagonal, the Riesz representer of the stacked
@@ -89,20 +90,23 @@ def _obstacles(pairs, forces):
     if not all(p.rigid and getattr(p, "reaching", None) and getattr(p, "representer", None) is None
                for p in pairs):
         return None
-    S = [sp.csr_matrix(p.interpolation(0)) for p in pairs]          # (size_i, trace nodes): 0/1 selections
+    S = [_selection(p) for p in pairs]                               # (size_i, trace nodes)
     f = sum(s.T @ fi for s, fi in zip(S, forces))                    # the part's nodal forces
-    count = sum(np.asarray(abs(s).sum(axis=0)).ravel() for s in S)   # the pairs reaching each node
+    count = sum(np.asarray(s.sum(axis=0)).ravel() for s in S)        # the pairs reaching each node
     union = pairs[0].reaching(count > 0)
-    U = sp.csr_matrix(union.interpolation(0))
+    if union is None:                                                # no space of their union (2D P2: not a run)
+        return None
+    U = _selection(union)
     full = U.T @ union.multiplier(U @ f)
-    return _shares(S, full, count)
+    shares = getattr(union, "shares", None)
+    weights = shares(S) if shares else [1.0 / np.maximum(count, 1.0)] * len(S)
+    return [s @ (full * w) for s, w in zip(S, weights)]
 
 
-def _shares(S, full, count) -> list[np.ndarray]:
-    """Each pair's values (selections ``S``) of the side's lambda_h ``full`` at the trace's nodes over the number
-    ``count`` of the pairs reaching each node: the pairs' functions sum to the side's."""
-    share = full / np.maximum(count, 1.0)
-    return [s @ share for s in S]
+def _selection(pair) -> sp.csr_matrix:
+    """(size, trace nodes) 0/1: the trace node at each node of X_h of the obstacle pair ``pair`` (its
+    interpolation, rounded: a P2 line's reads 1 - 1e-16 at a midpoint)."""
+    return sp.csr_matrix((abs(pair.interpolation(0)) > 0.5).astype(float))
 
 
 def _bodies(stack, group, forces):

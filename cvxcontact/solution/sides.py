@@ -23,7 +23,8 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
   reads its own nodes' values.
 
 Other groups (a two-body pair beside obstacles on one part, 2D two-body pairs, pairs reading lambda_h by a
-representer of their own) keep each pair's ``multiplier``.
+representer of their own) keep each pair's ``multiplier``, and so does a normal-compliance pair (its read-back sets
+lambda_h from its law; its forces are not summed into a Signorini pair's side).
 """
 
 from __future__ import annotations
@@ -36,10 +37,11 @@ from ..contact.riesz import TraceRiesz
 __all__ = ["side_multiplier"]
 
 
-def side_multiplier(stack, r) -> np.ndarray:
+def side_multiplier(stack, r, alone=()) -> np.ndarray:
     """lambda_h at the stacked nodes of X_h of every pair of ``stack`` (the contact lines' stack: ``interfaces``,
     ``members``, ``offsets``) for the stacked row forces ``r`` (units of ``r`` per unit length or area), read once
-    per side where several pairs hold one (module docstring). A single pair (``stack`` the pair itself): its own
+    per side where several pairs hold one (module docstring). The pairs ``alone`` (indices: a normal-compliance
+    law's, whose read-back sets lambda_h from its law) and a single pair (``stack`` the pair itself) read their own
     ``multiplier``."""
     r = np.asarray(r, dtype=float)
     if not hasattr(stack, "interfaces"):                             # one pair: its own
@@ -47,7 +49,7 @@ def side_multiplier(stack, r) -> np.ndarray:
     pairs, at = stack.interfaces, stack.offsets
     parts = [r[at[i]:at[i + 1]] for i in range(len(pairs))]
     lam: list = [None] * len(pairs)
-    for group in _groups(stack):
+    for group in _groups(stack, set(alone)):
         read = None
         if len(group) > 1:
             read = _obstacles([pairs[i] for i in group], [parts[i] for i in group])
@@ -63,9 +65,9 @@ def _sides(stack, i) -> list[tuple]:
     return [(k, getattr(trace, "part", None)) for k, trace in zip(stack.members[i], stack.interfaces[i].traces)]
 
 
-def _groups(stack) -> list[list[int]]:
+def _groups(stack, alone) -> list[list[int]]:
     """The pairs of ``stack`` grouped by the sides they share (connected: a pair joins every group one of whose
-    pairs holds one of its sides), each group in pair order."""
+    pairs holds one of its sides; the pairs ``alone`` each a group of its own), each group in pair order."""
     owner: dict = {}
     parent = list(range(len(stack.interfaces)))
 
@@ -75,7 +77,7 @@ def _groups(stack) -> list[list[int]]:
         return i
 
     for i in range(len(parent)):
-        for side in _sides(stack, i):
+        for side in [] if i in alone else _sides(stack, i):
             j = owner.setdefault(side, i)
             parent[root(i)] = root(j)
     groups: dict = {}

@@ -84,3 +84,18 @@ def test_one_pair_per_side_unchanged():
     stack = scene.stack
     r = np.random.default_rng(1).random(stack.size)
     assert np.array_equal(side_multiplier(stack, r), stack.multiplier(r))
+
+
+def test_compliance_pair_beside_a_signorini_pair_reads_alone():
+    """A Signorini line x < 0.7 and a compliant line x >= 0.3 under the block: the compliant pair's lambda_h is its
+    law's, so its forces are not summed into the Signorini pair's side; the Signorini pair reads its own
+    multiplier of its forces, bit for bit."""
+    body_scene = block2d((line(-1.0, 0.7),))
+    body = body_scene.bodies[0]
+    scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", line(-1.0, 0.7)),
+                                     cc.Contact(body, "bottom", line(0.3, 2.0), law=cc.NormalCompliance(1e12))])
+    sol = cc.solve(scene, "sigma1")
+    assert sol.ok
+    itf = scene.stack.interfaces[0]
+    own = itf.multiplier(np.asarray(sol.contacts[0].force, dtype=float))
+    assert np.array_equal(sol.contacts[0].lam, own)

@@ -89,7 +89,7 @@ def test_one_pair_per_side_unchanged():
 def test_compliance_pair_beside_a_signorini_pair_reads_alone():
     """A Signorini line x < 0.7 and a compliant line x >= 0.3 under the block: the compliant pair's lambda_h is its
     law's, so its forces are not summed into the Signorini pair's side; the Signorini pair reads its own
-    multiplier of its forces, bit for bit."""
+    multiplier of its forces (to the rounding of the units' scaling)."""
     body_scene = block2d((line(-1.0, 0.7),))
     body = body_scene.bodies[0]
     scene = cc.Scene(body, contacts=[cc.Contact(body, "bottom", line(-1.0, 0.7)),
@@ -98,4 +98,5 @@ def test_compliance_pair_beside_a_signorini_pair_reads_alone():
     assert sol.ok
     itf = scene.stack.interfaces[0]
     own = itf.multiplier(np.asarray(sol.contacts[0].force, dtype=float))
-    assert np.array_equal(sol.contacts[0].lam, own)
+    # measured <= 1.4e-16 relative, 5 kernel sets (its forces summed into the side: 0.47)
+    assert np.abs(sol.contacts[0].lam - own).max() <= 1e-13 * np.abs(own).max()

@@ -59,6 +59,7 @@ class _Trace2:
         v = trace.nodes
         mids = nodes.midpoint(v[:-1], v[1:])
         self.k, self.normal, self.unit_normal, self.y = trace.k, trace.normal, trace.unit_normal, trace.y
+        self.part = trace.part
         self.xv = trace.x
         order = np.empty(2 * len(v) - 1, dtype=int)
         order[0::2], order[1::2] = v, mids

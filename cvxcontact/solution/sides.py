@@ -62,7 +62,7 @@ def side_multiplier(stack, r, alone=()) -> np.ndarray:
 
 def _sides(stack, i) -> list[tuple]:
     """The sides (scene body index, part) pair ``i`` of ``stack`` holds."""
-    return [(k, getattr(trace, "part", None)) for k, trace in zip(stack.members[i], stack.interfaces[i].traces)]
+    return [(k, trace.part) for k, trace in zip(stack.members[i], stack.interfaces[i].traces)]
 
 
 def _groups(stack, alone) -> list[list[int]]:
@@ -90,7 +90,7 @@ def _obstacles(pairs, forces):
     """Obstacles on one part: each pair's lambda_h read once from the forces summed (module docstring), or None
     if the group is not that (a two-body pair in it, or a pair that reads no union)."""
     if not all(p.rigid and getattr(p, "reaching", None) and getattr(p, "representer", None) is None
-               for p in pairs):
+               and np.array_equal(p.traces[0].nodes, pairs[0].traces[0].nodes) for p in pairs):
         return None
     S = [_selection(p) for p in pairs]                               # (size_i, trace nodes)
     f = sum(s.T @ fi for s, fi in zip(S, forces))                    # the part's nodal forces

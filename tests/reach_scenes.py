@@ -3,8 +3,10 @@ tests/test_partial_reach_pressure.py): flat obstacles under a strip of the part,
 faces' triangles at a vertex of the 3 x 3 x 1 box's bottom, obstacles that split the part along an oblique line,
 and the P2 nodes' consistent loads on that bottom."""
 
+from itertools import pairwise
+
 import numpy as np
-from hex_scenes import H
+from hex_scenes import DELTA, SIDES, STEEL, H
 
 import cvxcontact as cc
 
@@ -58,3 +60,45 @@ def p2_loads(points):
     vertex = (i % 2 == 0).all(axis=1)
     boundary = ((i == 0) | (i == 6)).any(axis=1)
     return np.where(vertex, 0.0, np.where(boundary, 1 / 54, 2 / 54))
+
+
+def tilted_plane(lo, hi):
+    """The plane z = -4e-6 x - 3e-6 y under the strip lo <= x < hi, its distance along the ray -z; +inf off it:
+    the 3 x 3 x 1 box pushed by 1e-5 touches it everywhere with a pressure varying in x and y (an answer not in
+    the discrete space)."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, 2] + 4e-6 * x[:, 0] + 3e-6 * x[:, 1], np.inf)
+    return cc.Rigid("tilted plane", distance, f"the plane z = -4e-6 x - 3e-6 y under {lo} <= x < {hi}",
+                    sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
+
+
+def box_on_boxes(cuts=(0.4,), n=3):
+    """The n x n x 1 box [0, 1]^2 x [0, H] of steel pushed down by DELTA onto boxes [c_i, c_i+1] x [0, 1] x [-H, 0]
+    clamped at their bottom (0 = c_0 < cuts < 1), every side on rollers, one pair per lower box (the upper box
+    first): a column in uniaxial strain, the pressure the closed form M DELTA / (2 H) (M = c_33) on the whole
+    interface; the lower boxes' meshes (2 cells per 0.4 m along x, 2 along y) meet the upper box's faces in part
+    only."""
+    top = cc.Body(cc.box(nx=n, ny=n, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+                  displacement={"top": (None, None, -DELTA)}, contact="bottom", name="upper")
+    edges = (0.0, *cuts, 1.0)
+    lows = [cc.Body(cc.box(x=(a, b), nx=max(1, round(5 * (b - a))), ny=2, nz=1, z=(-H, 0.0)), STEEL,
+                    roller=SIDES, clamped="bottom", contact="top", name=f"lower {i}")
+            for i, (a, b) in enumerate(pairwise(edges))]
+    return cc.Scene(top, *lows, contacts=[cc.Contact(top, "bottom", low, "top") for low in lows])
+
+
+def block2d(obstacles):
+    """The 6 x 2 steel block [0, 1] x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its bottom
+    (one pair each)."""
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=6, ny=2), STEEL, roller=["left", "right"],
+                   displacement={"top": (None, -DELTA)}, contact="bottom")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
+
+
+def block3d(obstacles):
+    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its
+    bottom (one pair each)."""
+    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+                   displacement={"top": (None, None, -DELTA)}, contact="bottom")
+    return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])

@@ -12,6 +12,8 @@ displacements U_l of body l,
 
 from __future__ import annotations
 
+from copy import copy
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -160,6 +162,11 @@ class Interface:
         if (np.diff(hit) != 1).any():
             raise SceneError(f"{label}: the nodes that reach the obstacle along the normal are not one "
                              "contiguous run; split the part")
+        self._reach(first, hit)
+
+    def _reach(self, first, hit):
+        """X_h on the trace nodes ``hit`` of ``first`` (indices, one contiguous run or not): the pair's nodes,
+        mass, weights and selection."""
         self.reach = read_only(hit)
         self.x = read_only(first.x[hit])
         self.sigma = (read_only(np.arange(len(hit))),)
@@ -177,6 +184,15 @@ class Interface:
     def rigid(self) -> bool:
         """True if the second side is a rigid obstacle (no mesh, no unknowns)."""
         return self.obstacle is not None
+
+    def reaching(self, reached) -> Interface:
+        """A copy of this obstacle pair whose X_h is the trace nodes ``reached`` (bool per node of its trace):
+        the space in which lambda_h of several obstacles on one part is read once, from their forces summed
+        (:mod:`cvxcontact.solution.sides`). Its :meth:`multiplier` and :meth:`interpolation` only."""
+        out = copy(self)
+        out.__dict__.pop("_row_directions", None)
+        out._reach(self.traces[0], np.flatnonzero(reached))
+        return out
 
     def obstacle_gap(self) -> np.ndarray:
         """The distance (m) from each merged node to the obstacle along nu^a (0 without an obstacle)."""

@@ -59,6 +59,7 @@ class _Trace2:
         v = trace.nodes
         mids = nodes.midpoint(v[:-1], v[1:])
         self.k, self.normal, self.unit_normal, self.y = trace.k, trace.normal, trace.unit_normal, trace.y
+        self.part = trace.part
         self.xv = trace.x
         order = np.empty(2 * len(v) - 1, dtype=int)
         order[0::2], order[1::2] = v, mids
@@ -219,6 +220,34 @@ class QuadraticInterface:
     def multiplier(self, r) -> np.ndarray:
         """lambda_h (N/m for forces ``r`` in N) at the nodes of X_h: M lambda_h = r (docs/formulation.md §8)."""
         return spla.spsolve(self.mass.tocsc(), np.asarray(r, dtype=float))
+
+    def reaching(self, reached) -> QuadraticInterface | None:
+        """A copy of this obstacle pair whose X_h is the P2 line of the trace's nodes ``reached`` (bool per P2 node
+        of its trace, interleaved): the space in which lambda_h of several obstacles on one part is read once, from
+        their forces summed (:mod:`cvxcontact.solution.sides`); None unless they are one run from vertex to
+        vertex (a P2 line)."""
+        reached = np.asarray(reached, dtype=bool)
+        v = np.flatnonzero(reached[0::2])
+        if len(v) < 2 or (np.diff(v) != 1).any() or not reached[2 * v[0]:2 * v[-1] + 1].all():
+            return None
+        vertices = np.zeros(len(self.linear.traces[0].x), dtype=bool)
+        vertices[v] = True
+        return type(self)(self.linear.reaching(vertices), self.nodes, self.members)
+
+    @staticmethod
+    def shares(selections) -> list[np.ndarray]:
+        """Per obstacle pair on one part (``selections``: each one's 0/1 (size_i, trace nodes), one run from vertex
+        to vertex), the share of each trace node's lambda_h in its values. Its function lives on its run's
+        segments alone, so on each segment the shares of the runs holding it sum to 1: a node inside C runs 1 / C
+        for them (a midpoint is inside every run holding its segment) and 0 for the runs that end or start there;
+        a vertex inside none 1 / A for the A runs ending there and 1 / B for the B starting there."""
+        j = np.arange(selections[0].shape[1])
+        held = [np.flatnonzero(np.asarray(abs(s).sum(axis=0)).ravel() > 0.5) for s in selections]
+        lo, hi = (np.array([h[k] for h in held])[:, None] for k in (0, -1))
+        inside, ends, starts = (lo < j) & (j < hi), (hi == j) & (lo < j), (lo == j) & (hi > j)
+        C, A, B = (np.maximum(m.sum(axis=0), 1) for m in (inside, ends, starts))
+        alone = inside.sum(axis=0) == 0
+        return list(inside / C + (ends & alone) / A + (starts & alone) / B)
 
     def support(self, values) -> tuple[np.ndarray, np.ndarray]:
         """(abscissae s (m), nodal values): the line on which the P2 function of X_h with nodal ``values`` lives,

@@ -29,6 +29,8 @@ law sits on the rows themselves, weighted by the red refinement's hats integrate
 
 from __future__ import annotations
 
+from copy import copy
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -231,6 +233,11 @@ class QuadraticSurface(Represented):
         hit = np.flatnonzero(np.isfinite(d))
         if len(hit) == 0:
             raise SceneError(f"{label}: the obstacle cannot be reached along the part's outward normal from any node")
+        self._reach(hit)
+
+    def _reach(self, hit):
+        """X_h on the trace nodes ``hit`` (indices): the pair's nodes, whole faces, mass and selection."""
+        t = self.traces[0]
         at = np.full(len(t.nodes), -1)
         at[hit] = np.arange(len(hit))
         whole = (at[t.faces] >= 0).all(axis=1)
@@ -240,6 +247,21 @@ class QuadraticSurface(Represented):
         self.mass = t.mass[hit][:, hit].tocsr()
         self._partial = len(hit) < len(t.nodes)          # lambda_h read back by _partial_mass (multiplier)
         self._interp = [sp.csr_matrix((np.ones(len(hit)), (np.arange(len(hit)), hit)), shape=(len(hit), len(t.nodes)))]
+
+    def reaching(self, reached) -> QuadraticSurface:
+        """A copy of this obstacle pair whose X_h is the trace nodes ``reached`` (bool per P2 node of its trace):
+        the space in which lambda_h of several obstacles on one part is read once, from their forces summed
+        (:mod:`cvxcontact.solution.sides`). Its :meth:`multiplier` and :meth:`interpolation` only."""
+        out = copy(self)
+        out.__dict__.pop("_row_directions", None)
+        out._factors = {}
+        out._reach(np.flatnonzero(reached))
+        return out
+
+    def riesz_parts(self):
+        """(the traces' interpolations, the mass of X_h): what a two-body pair reads lambda_h from
+        (:class:`~cvxcontact.contact.riesz.TraceRiesz`); None with an obstacle or a representer of its own."""
+        return None if self.rigid or self.representer is not None else (self._interp, self.mass)
 
     def _partial_mass(self) -> sp.csr_matrix:
         """(size, size) m^2: against an obstacle that reaches the part only in part, the matrix lambda_h is read back

@@ -191,6 +191,10 @@ class SurfaceInterface(Represented):
         if len(hit) == 0:
             raise SceneError(f"{label}: the obstacle cannot be reached along the part's outward normal "
                              f"({_v(self.normal)}) from any node; it does not face the part")
+        self._reach(first, hit)
+
+    def _reach(self, first, hit):
+        """X_h on the trace nodes ``hit`` of ``first`` (indices): the pair's nodes, mass, weights and selection."""
         self.reach = read_only(hit)
         self.overlay = None
         self.x = read_only(first.x[hit])
@@ -211,6 +215,21 @@ class SurfaceInterface(Represented):
     def rigid(self) -> bool:
         """True if the second side is a rigid obstacle (no mesh, no unknowns)."""
         return self.obstacle is not None
+
+    def reaching(self, reached) -> SurfaceInterface:
+        """A copy of this obstacle pair whose X_h is the trace nodes ``reached`` (bool per node of its trace):
+        the space in which lambda_h of several obstacles on one part is read once, from their forces summed
+        (:mod:`cvxcontact.solution.sides`). Its :meth:`multiplier` and :meth:`interpolation` only."""
+        out = copy(self)
+        out.__dict__.pop("_row_directions", None)
+        out._factor = None
+        out._reach(self.traces[0], np.flatnonzero(reached))
+        return out
+
+    def riesz_parts(self):
+        """(the traces' interpolations, the mass of X_h): what a two-body pair reads lambda_h from
+        (:class:`~cvxcontact.contact.riesz.TraceRiesz`); None with an obstacle or a representer of its own."""
+        return None if self.rigid or self.representer is not None else (self._interp, self.mass)
 
     @property
     def size(self) -> int:

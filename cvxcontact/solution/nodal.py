@@ -32,6 +32,7 @@ from .checks import (
     touching_nodes,
 )
 from .info import Route, SolveInfo, Status
+from .sides import side_multiplier
 from .solution import (
     ContactResult,
     Solution,
@@ -99,7 +100,8 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     itf = problem.interface
     interface = trace.kept(itf)
     Ety = E.T @ y
-    lam = itf.multiplier(Ety)              # scaled; the Riesz representer in X_h (2D: M lam = E^T y)
+    compliant = [i for i, law in enumerate(getattr(problem.rows, "laws", ())) if law.compliant]   # their own law's
+    lam = side_multiplier(itf, Ety, compliant)    # scaled; the Riesz representer in X_h (2D: M lam = E^T y), per side
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump

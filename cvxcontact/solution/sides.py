@@ -1,0 +1,138 @@
+"""lambda_h read once per side (docs/accuracy.md, "Several pairs on one part"): where several contact pairs hold
+one contact part (a side: body, part), the forces they put on it are summed and lambda_h is solved once on the
+union of their supports, each pair then reading its part of it; a pair alone on its sides reads its own
+``multiplier`` (unchanged, bit for bit).
+
+The forces of one node shared by several rows of one body are the solver's split of that node's force between
+the pairs (arbitrary where the rows depend on each other), so a pair's own Riesz representer reads that split; the
+sum over the pairs of a side is the body's force there, fixed by its balance. Two cases are read once:
+
+- obstacles on one part (every pair of the group rigid, one side): the forces summed on the trace's nodes and
+  lambda_h read by a copy of one of the pairs whose X_h is the nodes any of them reaches (``reaching``): the
+  consistent mass of the part where they reach all of it, the law's weights (P1: r / w; 3D P2: the partial mass)
+  where they do not (2D P2: the union run's P2 line; not a run: each pair keeps its own ``multiplier``). The
+  estimate sums the pairs' functions, so each pair reads its share of the side's lambda_h at its nodes: each
+  node's basis function lives on the whole part (P1, 3D P2), so the share is one over the number of the group's
+  pairs reaching the node; a 2D P2 pair's function lives on its run alone, so the shares are the run's
+  (``shares`` of the union: on each segment the runs holding it sum to 1).
+- two-body pairs of planar surfaces (3D) sharing a side (a body on several bodies): lambda_h in X_h of the
+  group, the functions of every side on the pairs' nodes stacked (one column block per side, a shared side's
+  functions read by each of its pairs), the pairs' masses block diagonal, the Riesz representer of the stacked
+  forces by :class:`~cvxcontact.contact.riesz.TraceRiesz`: its right-hand side is the work on every side's
+  functions, on a shared side the forces summed over its pairs. The pairs' overlays are disjoint, so each pair
+  reads its own nodes' values.
+
+Other groups (a two-body pair beside obstacles on one part, 2D two-body pairs, pairs reading lambda_h by a
+representer of their own) keep each pair's ``multiplier``, and so does a normal-compliance pair (its read-back sets
+lambda_h from its law; its forces are not summed into a Signorini pair's side).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..contact.riesz import TraceRiesz
+
+__all__ = ["side_multiplier"]
+
+
+def side_multiplier(stack, r, alone=()) -> np.ndarray:
+    """lambda_h at the stacked nodes of X_h of every pair of ``stack`` (the contact lines' stack: ``interfaces``,
+    ``members``, ``offsets``) for the stacked row forces ``r`` (units of ``r`` per unit length or area), read once
+    per side where several pairs hold one (module docstring). The pairs ``alone`` (indices: a normal-compliance
+    law's, whose read-back sets lambda_h from its law) and a single pair (``stack`` the pair itself) read their own
+    ``multiplier``."""
+    r = np.asarray(r, dtype=float)
+    if not hasattr(stack, "interfaces"):                             # one pair: its own
+        return stack.multiplier(r)
+    pairs, at = stack.interfaces, stack.offsets
+    parts = [r[at[i]:at[i + 1]] for i in range(len(pairs))]
+    lam: list = [None] * len(pairs)
+    for group in _groups(stack, set(alone)):
+        read = None
+        if len(group) > 1:
+            read = _obstacles([pairs[i] for i in group], [parts[i] for i in group])
+            if read is None:
+                read = _bodies(stack, group, [parts[i] for i in group])
+        for i, values in zip(group, read or [pairs[i].multiplier(parts[i]) for i in group]):
+            lam[i] = values
+    return np.concatenate(lam) if lam else np.zeros(0)
+
+
+def _sides(stack, i) -> list[tuple]:
+    """The sides (scene body index, part) pair ``i`` of ``stack`` holds."""
+    return [(k, trace.part) for k, trace in zip(stack.members[i], stack.interfaces[i].traces)]
+
+
+def _groups(stack, alone) -> list[list[int]]:
+    """The pairs of ``stack`` grouped by the sides they share (connected: a pair joins every group one of whose
+    pairs holds one of its sides; the pairs ``alone`` each a group of its own), each group in pair order."""
+    owner: dict = {}
+    parent = list(range(len(stack.interfaces)))
+
+    def root(i):
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    for i in range(len(parent)):
+        for side in [] if i in alone else _sides(stack, i):
+            j = owner.setdefault(side, i)
+            parent[root(i)] = root(j)
+    groups: dict = {}
+    for i in range(len(parent)):
+        groups.setdefault(root(i), []).append(i)
+    return list(groups.values())
+
+
+def _obstacles(pairs, forces):
+    """Obstacles on one part: each pair's lambda_h read once from the forces summed (module docstring), or None
+    if the group is not that (a two-body pair in it, or a pair that reads no union)."""
+    if not all(p.rigid and getattr(p, "reaching", None) and getattr(p, "representer", None) is None
+               and np.array_equal(p.traces[0].nodes, pairs[0].traces[0].nodes) for p in pairs):
+        return None
+    S = [_selection(p) for p in pairs]                               # (size_i, trace nodes)
+    f = sum(s.T @ fi for s, fi in zip(S, forces))                    # the part's nodal forces
+    count = sum(np.asarray(s.sum(axis=0)).ravel() for s in S)        # the pairs reaching each node
+    union = pairs[0].reaching(count > 0)
+    if union is None:                                                # no space of their union (2D P2: not a run)
+        return None
+    U = _selection(union)
+    full = U.T @ union.multiplier(U @ f)
+    shares = getattr(union, "shares", None)
+    weights = shares(S) if shares else [1.0 / np.maximum(count, 1.0)] * len(S)
+    return [s @ (full * w) for s, w in zip(S, weights)]
+
+
+def _selection(pair) -> sp.csr_matrix:
+    """(size, trace nodes) 0/1: the trace node at each node of X_h of the obstacle pair ``pair`` (its
+    interpolation, rounded: a P2 line's reads 1 - 1e-16 at a midpoint)."""
+    return sp.csr_matrix((abs(pair.interpolation(0)) > 0.5).astype(float))
+
+
+def _bodies(stack, group, forces):
+    """Two-body pairs sharing sides: lambda_h in their X_h stacked (module docstring), or None if a pair of the
+    group reads no traces' Riesz representer (an obstacle, 2D, a representer of its own) or a shared side's
+    traces differ."""
+    pairs = [stack.interfaces[i] for i in group]
+    riesz = [getattr(p, "riesz_parts", lambda: None)() for p in pairs]
+    if any(x is None for x in riesz):
+        return None
+    sizes = [p.size for p in pairs]
+    blocks: dict = {}                      # per side: [(row block, its functions)], and its trace's nodes
+    nodes: dict = {}
+    for b, (i, (interp, _)) in enumerate(zip(group, riesz)):
+        for side, trace, P in zip(_sides(stack, i), pairs[b].traces, interp):
+            if not np.array_equal(nodes.setdefault(side, np.asarray(trace.nodes)), trace.nodes):
+                return None
+            blocks.setdefault(side, []).append((b, P))
+    columns = []
+    for held in blocks.values():
+        rows = [sp.csr_matrix((n, held[0][1].shape[1])) for n in sizes]
+        for b, P in held:
+            rows[b] = sp.csr_matrix(P)
+        columns.append(sp.vstack(rows, format="csr"))
+    mass = sp.block_diag([m for _, m in riesz], format="csr")
+    lam = TraceRiesz(columns, mass).solve(np.concatenate(forces))
+    return np.split(lam, np.cumsum(sizes)[:-1])

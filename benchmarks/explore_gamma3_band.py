@@ -10,14 +10,16 @@ solved exactly once on the whole mesh. On two_boxes(n, ..., elastic=True) (tests
     again by PARDISO on the mixed system for the displacements, explore_gamma3_outer.Mixed) and the "sigma1" answer
     (the AMG route, explore_gamma3_alm_amg.sigma1_start). Each "gamma3" row's status at either answer: in contact
     (s = G x - g >= -1e-9 of the jump's scale: touching or penetrating) or open. Rows whose status differs, binned by
-    their signed distance to the zone's edge at the answer (the distance in the face's plane from the row's overlay
-    vertex to the nearest row of the other status at the answer, in element layers h = 1/n of the upper face,
-    positive inside the zone).
+    their signed distance to the zone's edge at the answer, in element layers h = 1/n of the upper face (the zone:
+    the points of the face within h of a row in contact, since open rows lie between touching ones everywhere inside
+    it; inside, + the distance from the row's overlay vertex to the nearest row outside the zone; outside, - the
+    distance to the nearest row in contact); and every row, binned the same way.
 ``--table decay``: the relative difference of u (max over nodes |u_sigma1 - u_gamma3| / max |u_gamma3|) binned by
-    the node's distance (3D, in h) to the nearest row whose status differs.
+    the node's distance (3D, in h) to the zone's edge at the answer (its rows within h of it, either side).
 ``--table band``: the band correction, iterated up to ``--rounds`` times from x = the "sigma1" answer:
-    1. the band: the rows of the iterate's contact-zone edge (a row in contact with an open row within ``--width``
-       h, and the open row), its penetrating rows, and after a face its closed rows with negative force;
+    1. the band: ``--band edge``, the rows within ``--width`` h (1) of the iterate's zone's edge (measured as
+       above); ``--band zone``, the iterate's whole zone widened by ``--width`` h; after a face, also its penetrating
+       rows and its closed rows with negative force;
     2. the patch: the nodes within k element layers (graph distance k in the stiffness pattern, both bodies) of the
        band rows' nodes, free; every other dof held at the iterate (Dirichlet data on the patch's boundary); the
        "gamma3" problem on the patch (its rows: those reading a patch dof) solved by Clarabel's interior point
@@ -50,6 +52,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import itertools
 import sys
 import time
 from pathlib import Path
@@ -131,6 +134,8 @@ class Scene:
         self.cj = np.asarray(sol.contact.jump)
         self.unit = p.units.displacement
         self.A, self.F, self.G, self.g = outer_mod.mixed_data(p)
+        self.G.sort_indices()      # built after a solve, E @ jump comes with its indices unsorted (values equal):
+        # sigma1_start matches rows by their column indices' bytes, so unsorted it missed 533 of 535 at n = 24
         self.modes = body_modes(p)
         self.pts = dof_points(p)
         n_upper = p.blocks[0].Kuu.shape[0]
@@ -175,7 +180,7 @@ class Scene:
         dist = tree.query(self.pts[0::3])[0] / self.h
         du = np.abs(self.x1 - self.xref).reshape(-1, 3).max(axis=1) / np.abs(self.xref).max()
         out = []
-        for lo, hi in zip(DECAY_BINS[:-1], DECAY_BINS[1:]):
+        for lo, hi in itertools.pairwise(DECAY_BINS):
             sel = (dist >= lo) & (dist < hi)
             out.append(float(du[sel].max()) if sel.any() else None)
         return {"n": self.n, "bins": out, "total": rel(self.x1, self.xref)}
@@ -203,7 +208,7 @@ class Scene:
             reach |= (self.nodes @ reach.astype(float)) > 0
         return np.flatnonzero(np.repeat(reach, 3))
 
-    def solve_patch(self, x, I: np.ndarray, ident: float):
+    def solve_patch(self, x, I: np.ndarray):
         """The "gamma3" problem on the patch I (other dofs held at x) by Clarabel; (x with the patch's answer,
         its rows, their multipliers, Clarabel's status, CPU s)."""
         import clarabel
@@ -240,10 +245,10 @@ class Scene:
             self._hier = (ml.aspreconditioner(cycle="V"), time.process_time() - c0)
         return self._hier
 
-    def projected_cg(self, B: np.ndarray, start: np.ndarray | None, tol: float = 1e-10):
+    def projected_cg(self, B: np.ndarray, start: np.ndarray | None, tol: float = 1e-10, maxiter: int = 500):
         """explore_gamma3_face's projected CG on the face B from ``start`` (projected onto G_B x = g_B; None:
         x = 0): (x, iterations, CPU s without the hierarchy). Stops where the projected residual is below ``tol``
-        of the cold start's (the same absolute target warm and cold)."""
+        of the cold start's (the same absolute target warm and cold); at most ``maxiter`` iterations."""
         V, _ = self.hierarchy()
         c0 = time.process_time()
         GB = self.G[B].tocsr()
@@ -259,7 +264,7 @@ class Scene:
         r = proj(self.F - self.A @ x)
         z = proj(V @ r)
         dp, rz, it = z.copy(), r @ z, 0
-        while np.linalg.norm(r) > target and it < 3000:
+        while np.linalg.norm(r) > target and it < maxiter:
             Ad = proj(self.A @ dp)
             a = rz / (dp @ Ad)
             x = x + a * dp
@@ -274,13 +279,13 @@ class Scene:
         """The band correction with k layers, iterated from the sigma1 answer (module docstring)."""
         x, y = self.x1.copy(), self.y1.copy()
         negative = None
-        cpu = dict(patch=0.0, qr=0.0, face_pardiso=0.0, face_pcg=0.0, nnls=0.0)
+        cpu = {"patch": 0.0, "qr": 0.0, "face_pardiso": 0.0, "face_pcg": 0.0, "nnls": 0.0}
         recs = []
         certified, xB = False, x
         for rnd in range(1, a.rounds + 1):
             band_rows = self.band(x, a.band, a.width, rnd > 1, negative)
             I = self.patch(band_rows, k)
-            xn, prow, pz, pstat, pcpu = self.solve_patch(x, I, a.ident)
+            xn, prow, pz, pstat, pcpu = self.solve_patch(x, I)
             cpu["patch"] += pcpu
             yn = y.copy()
             yn[prow] = np.maximum(pz, 0.0)
@@ -294,7 +299,10 @@ class Scene:
             closed[B] = True
             xB, yB = self.mixed.solve(closed, self.F, self.g)
             c2 = time.process_time()
+            print("      patch, QR, PARDISO face CPU s", round(pcpu, 2), round(c1 - c0, 2), round(c2 - c1, 2),
+                  flush=True)
             xw, it_w, cpu_w = self.projected_cg(B, x)
+            print("      warm projected CG", it_w, round(cpu_w, 2), flush=True)
             xc, it_c, _ = self.projected_cg(B, None)
             cpu["qr"] += c1 - c0
             cpu["face_pardiso"] += c2 - c1
@@ -392,12 +400,12 @@ def main() -> None:
     print()
     head = (["n", "unknowns", "rows m", "in contact, gamma3", "in contact, sigma1", "penetrating at sigma1",
              "contact in gamma3 only", "contact in sigma1 only"]
-            + [f"[{lo}, {hi})" for lo, hi in zip(DIST_BINS[:-1], DIST_BINS[1:])] + ["largest |distance| (h)"])
+            + [f"[{lo}, {hi})" for lo, hi in itertools.pairwise(DIST_BINS)] + ["largest |distance| (h)"])
     print("Rows whose status differs, by signed distance to the zone's edge (h = 1/n; + inside)")
     print(markdown_table(head, rows1))
     if rows2:
         print("\nmax |u_sigma1 - u_gamma3| / max |u_gamma3| by a node's distance to the zone's edge (h)")
-        print(markdown_table(["n"] + [f"[{lo}, {hi})" for lo, hi in zip(DECAY_BINS[:-1], DECAY_BINS[1:])]
+        print(markdown_table(["n"] + [f"[{lo}, {hi})" for lo, hi in itertools.pairwise(DECAY_BINS)]
                              + ["all (relative 2-norm)"], rows2))
     if rows3:
         print("\nBand correction (per round: band rows, patch dofs, T's rows open at the answer + answer's contact "

@@ -23,7 +23,8 @@ solved exactly once on the whole mesh. On two_boxes(n, ..., elastic=True) (tests
     2. the patch: the nodes within k element layers (graph distance k in the stiffness pattern, both bodies) of the
        band rows' nodes, free; every other dof held at the iterate (Dirichlet data on the patch's boundary); the
        "gamma3" problem on the patch (its rows: those reading a patch dof) solved by Clarabel's interior point
-       (tolerances 1e-10), the rows whose slack is within ``--ident`` (1e-6) of the jump's scale taken as touching;
+       (tolerances 1e-10), the rows whose slack is within ``--ident`` (1e-6) of the jump's scale taken as touching
+       (``--select force``: of those in the patch only the ones whose multiplier exceeds ``--ident`` of the largest);
     3. the whole mesh's rows in contact at the iterate with the patch's answer put in (those outside the patch keep
        the iterate's status) -> an independent subset B (column-pivoted QR, weighted by the patch's multipliers and
        the "sigma1" forces, explore_gamma3_outer.independent) -> the face G_B x = g_B solved exactly on the whole
@@ -293,6 +294,10 @@ class Scene:
             s = self.G @ xn - self.g
             sc = jump_scale(self.G, xn, self.g)
             T = np.flatnonzero(s >= -a.ident * sc)
+            if a.select == "force":      # the patch's rows carrying force only (the touching ones at zero force left
+                inpatch = np.zeros(self.m, bool)    # free: the face's answer shows whether they penetrate)
+                inpatch[prow] = True
+                T = T[~inpatch[T] | (yn[T] > a.ident * max(yn[prow].max(initial=0.0), 1e-300))]
             c0 = time.process_time()
             B = T[independent(self.R[T].toarray(), 1.0 + yn[T] / max(yn.max(), 1e-300))]
             c1 = time.process_time()
@@ -361,6 +366,8 @@ def main() -> None:
     ap.add_argument("--band", choices=("edge", "zone"), default="edge", help="the band: the edge or the zone")
     ap.add_argument("--width", type=float, default=1.0, help="the band: rows within this many h of the edge")
     ap.add_argument("--ident", type=float, default=1e-6, help="touching in the patch: slack / jump scale")
+    ap.add_argument("--select", choices=("touching", "force"), default="touching",
+                    help="the face's candidate rows in the patch: touching, or carrying force (> ident of the largest)")
     a = ap.parse_args()
     rows1, rows2, rows3, rows4 = [], [], [], []
     for n in a.n:

@@ -1,5 +1,5 @@
 """Exploration: P1 "gamma3" from the "sigma1" AMG route's answer, corrected on the band near the contact zone's edge
-(issue 33 item 1; docs/explanation/gamma3-fast-route.md, "The sigma1 answer corrected on the band"). Not in the
+(issue 33 item 1; docs/explanation/gamma3-fast-route.md, "The sigma1 answer corrected near the edge"). Not in the
 package.
 
 The hypothesis: the "gamma3" answer differs from the "sigma1" answer (its rows are overlay rows, one per vertex of
@@ -44,9 +44,9 @@ CPU seconds by ``time.process_time``, one thread, one run; results: benchmarks/r
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/explore_gamma3_band.py \\
         --table status --n 16 24 32 40
     ... --table decay --n 16 24 32 40
-    ... --table band --n 16 24 32 40 --k 1 2 4 8
-    ... --table cost --n 16 24 32 40 --k 1 2 4 8
-    ... --table all --n 16 (every table from one set of runs)
+    ... --table band --band edge --n 16 --k 1 2 4 8 --rounds 8     (RAYON_NUM_THREADS=1: Clarabel on one thread)
+    ... --table band --band zone --n 16 24 --k 1 2 4 8 --rounds 8  [--ident 1e-8] [--select force]
+    ... --table cost (the same runs; every table is printed by --table all)
 """
 
 from __future__ import annotations

@@ -414,7 +414,7 @@ def main() -> None:
     if rows2:
         print("\nmax |u_sigma1 - u_gamma3| / max |u_gamma3| by a node's distance to the zone's edge (h)")
         print(markdown_table(["n"] + [f"[{lo}, {hi})" for lo, hi in itertools.pairwise(DECAY_BINS)]
-                             + ["all (relative 2-norm)"], rows2))
+                             + ["every dof"], rows2))
     if rows3:
         print("\nBand correction (per round: band rows, patch dofs, T's rows open at the answer + answer's contact "
               "rows missing)")

@@ -55,8 +55,9 @@ from harness import amg_bonded, bonded_system, peak_gb, rel
 from scenes3d import two_boxes
 
 import cvxcontact as cc
-from cvxcontact.backends.amg import KrylovContact, _seeded, rigid_modes
+from cvxcontact.backends.amg import KrylovContact, rigid_modes
 from cvxcontact.backends.condensed import quasi_definite_rhs
+from cvxcontact.backends.krylov import seeded
 from cvxcontact.backends.signorini import cheap_start
 
 
@@ -79,7 +80,7 @@ class AMGNewton:
         self.GJ = self.G[:, self.J].tocsr()
         H0 = self.A + (rho * (self.G.T @ self.G) if penalised else 0.0)
         H0 = sp.csr_matrix(H0).tobsr(blocksize=(3, 3))
-        with _seeded():
+        with seeded():
             self.ml = pyamg.smoothed_aggregation_solver(H0, B=modes, symmetry="symmetric", max_coarse=30)
         self.V = self.ml.aspreconditioner(cycle="V")
         self.its: list[int] = []

@@ -69,7 +69,7 @@ from .krylov import seeded as _seeded
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP", "Reduced", "v_cycle"]
+           "LOOSE_KEEP", "Reduced", "SETTLE", "v_cycle"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two

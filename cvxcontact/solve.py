@@ -21,7 +21,7 @@ from .backends.run import run
 from .backends.start import ContactState, deferred_state
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError, user_stacklevel
 from .fem.space import space
 from .physics.scene import Scene
 from .solution.bound import check_covered as check_bound_covered
@@ -313,10 +313,10 @@ class ContactSolver:
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
         for message in rowless(sol):
-            warnings.warn(message, ResolutionWarning, stacklevel=5)
+            warnings.warn(message, ResolutionWarning, stacklevel=user_stacklevel())
         if self.estimate and not unestimated:
             for message in unresolved(sol):
-                warnings.warn(message, ResolutionWarning, stacklevel=5)
+                warnings.warn(message, ResolutionWarning, stacklevel=user_stacklevel())
         return sol
 
     def _fallback_of(self, raw):
@@ -357,11 +357,11 @@ class ContactSolver:
         p, term = self.problem, self.problem.term
         if term.finish_declined(p, raw, self.settings.polish):
             warnings.warn(f"{declined_words(repr(p.scene), p.condition, raw)}:\n{sol.report()}", ResidualWarning,
-                          stacklevel=6)
+                          stacklevel=user_stacklevel())
         elif not sol.ok:
             hint = "" if raw.polished else term.unfinished_hint      # the term's words on its unfinished answer
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
-                          f"{sol.report()}{hint}", ResidualWarning, stacklevel=6)
+                          f"{sol.report()}{hint}", ResidualWarning, stacklevel=user_stacklevel())
 
     @property
     def cache(self) -> Cache:

@@ -95,11 +95,12 @@ class Condensation:
     def prepare(self, problems) -> None:
         """Batch the forward sweeps of the load cases ``problems`` (problems of this geometry and contact rows):
         per body, one sweep of all their distinct scaled loads as the columns of one right-hand side (each
-        factor read once for all of them: the sweeps are bound by reading the factors), kept until the next call
-        for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of them. A batched
-        sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum in another
-        order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load case). A body
-        whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load at a time."""
+        factor read once for all of them: the sweeps are bound by reading the factors), kept until :meth:`flush`
+        ends the batch for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of
+        them. A batched sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum
+        in another order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load
+        case). A body whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load
+        at a time."""
         for k, c in enumerate(self.bodies):
             self._batched[k] = []
             if isinstance(c.factor, Released):
@@ -172,7 +173,8 @@ class Condensation:
     def flush(self) -> float:
         """Make the backward sweeps held since :meth:`defer` into the fields handed out (per body one sweep of all
         of them as the columns of one right-hand side; one alone, or a body whose factors were freed, one at a time:
-        the single sweep's numbers), and stop holding; the seconds it took."""
+        the single sweep's numbers), and stop holding; the batch of :meth:`prepare` ends too (its sweeps dropped:
+        a later load case is swept as :meth:`forward` alone would); the seconds it took."""
         t0 = time.perf_counter()
         pending, self._deferred = self._deferred or [], None
         for k, c in enumerate(self.bodies):
@@ -185,6 +187,14 @@ class Condensation:
                                       np.column_stack([v for _, _, v in mine]))
                 for j, (x, _, _) in enumerate(mine):
                     x[:] = X[:, j]
+        for k, batched in enumerate(self._batched):    # the batch is over: a later load case sweeps afresh (as
+            last = self._loaded[k]                     # solve() alone would), and the last sweep kept holds a
+            if last is not None and any(s is last[1] for _, s in batched):     # column of its own, not a view of
+                own = Forward(last[1].reduced, np.array(last[1].state))       # the batch's whole right-hand side
+                if self.sweeps is not None:
+                    self.sweeps = [own if s is last[1] else s for s in self.sweeps]
+                self._loaded[k] = (last[0], own)
+        self._batched = [[] for _ in self.bodies]
         return time.perf_counter() - t0
 
     def invert_gamma(self, problem, v, timings):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
@@ -236,7 +236,11 @@ class ContactSolver:
         defer`), its factors read once for all (timed as ``batched_sweeps`` and ``batched_backward`` in the
         stage timings of the first of them). The answers are :meth:`solve`'s to rounding (a batched sweep sums in
         another order), checked and estimated as :meth:`solve`'s. Every scene is checked against the prepared
-        geometry before anything is solved (SceneError, naming what differs)."""
+        geometry before anything is solved (SceneError, naming what differs; one too if ``scenes`` is a Scene or
+        not a sequence of them)."""
+        if isinstance(scenes, Scene) or not isinstance(scenes, Iterable):
+            raise SceneError(f"solve_many takes a sequence of Scenes (the load cases), got {type(scenes).__name__}; "
+                             "one load case: solve(scene) or solve_many([scene])")
         scenes = list(scenes)
         for scene in scenes:
             if not self.problem.accepts(scene):

@@ -196,3 +196,13 @@ def test_after_solve_many_its_load_cases_are_swept_afresh(factorization):
     a, b = batched.solve(scenes[0]), alone.solve(scenes[0])
     assert sweeps[0] == [False]                                             # one single forward sweep
     assert np.array_equal(_fields(a), _fields(b)) and np.array_equal(a.contact.force, b.contact.force)
+
+
+@pytest.mark.parametrize("given", [None, 3, "scene"], ids=["None", "a number", "a Scene"])
+def test_solve_many_takes_a_sequence_of_scenes(given):
+    """A Scene itself, or no sequence at all: SceneError naming what was given and what to pass (before: a bare
+    TypeError, "'Scene' object is not iterable"); the solver is still usable."""
+    solver = cc.ContactSolver(two_blocks(), method="condensed", factorization="superlu")
+    with pytest.raises(SceneError, match="sequence of Scenes.*solve_many\\(\\[scene\\]\\)"):
+        solver.solve_many(two_blocks() if given == "scene" else given)
+    assert solver.solve_many([]) == [] and solver.solve_many(_cases(1))[0].ok

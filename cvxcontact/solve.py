@@ -251,11 +251,12 @@ class ContactSolver:
             chunk = [self.problem.with_loads(s) for s in scenes[len(out):len(out) + BATCH]]
             each = (time.perf_counter() - t0) / len(chunk)
             t1 = time.perf_counter()
-            if not self._cache.prepare(chunk):          # nothing kept yet: this one alone builds it
-                out.append(self._solve(chunk[0], each))
-                continue
-            self._setup["batched_sweeps"] = time.perf_counter() - t1
-            out.extend(self._solve_batch(chunk, each))
+            while chunk and not self._cache.prepare(chunk):    # nothing kept (yet, or ever on this route): one
+                out.append(self._solve(chunk.pop(0), each))    # alone, its problem derived once
+                t1 = time.perf_counter()
+            if chunk:
+                self._setup["batched_sweeps"] = time.perf_counter() - t1
+                out.extend(self._solve_batch(chunk, each))
         return out
 
     def _solve_batch(self, problems, loads: float) -> list[Solution]:

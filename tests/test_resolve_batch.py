@@ -206,3 +206,22 @@ def test_solve_many_takes_a_sequence_of_scenes(given):
     with pytest.raises(SceneError, match="sequence of Scenes.*solve_many\\(\\[scene\\]\\)"):
         solver.solve_many(two_blocks() if given == "scene" else given)
     assert solver.solve_many([]) == [] and solver.solve_many(_cases(1))[0].ok
+
+
+@pytest.mark.parametrize("method, first", [("sparse", True), ("condensed", False)],
+                         ids=["a route keeping no condensation", "solve_many as the first call"])
+def test_solve_many_derives_each_load_case_once(monkeypatch, method, first):
+    """Each load case's problem is derived once (DiscreteProblem.with_loads), whether the route keeps a
+    condensation or not (before: on a route keeping none, the sparse one here, every load case solved alone
+    re-derived the rest of its batch: 36 derivations for 8 load cases; 15 when solve_many built the condensation)."""
+    from cvxcontact.discrete import DiscreteProblem
+
+    solver = cc.ContactSolver(two_blocks(), method=method, factorization="superlu")
+    if first:
+        solver.solve()
+    derived, with_loads = [], DiscreteProblem.with_loads
+    monkeypatch.setattr(DiscreteProblem, "with_loads", lambda self, scene: derived.append(scene) or
+                        with_loads(self, scene))
+    scenes = _cases(8)
+    got = solver.solve_many(scenes)
+    assert len(derived) == 8 and all(sol.ok for sol in got)

@@ -274,6 +274,8 @@ class ContactSolver:
         finally:
             spent = condensation.flush()
         runs[0][2]["batched_backward"] = spent
+        for _, raw, _ in runs:                          # the fields the flush made (Held lists): plain lists
+            raw.u, raw.phi = list(raw.u), list(raw.phi)
         out = []
         for problem, raw, timings in runs:
             if self.method != method:

@@ -225,3 +225,27 @@ def test_solve_many_derives_each_load_case_once(monkeypatch, method, first):
     scenes = _cases(8)
     got = solver.solve_many(scenes)
     assert len(derived) == 8 and all(sol.ok for sol in got)
+
+
+def test_fields_held_by_the_batch_refuse_to_be_read_before_they_are_made(monkeypatch):
+    """A route that read its fields under Condensation.defer (before flush made them) fails at once (RuntimeError)
+    instead of reading a placeholder (before: NaN arrays, on which every comparison is silently False); after the
+    batch every answer's fields are plain lists of finite arrays, as solve()'s."""
+    from cvxcontact.backends import signorini
+
+    solver = cc.ContactSolver(two_blocks(), method="condensed", factorization="superlu")
+    solver.solve()
+    seen, route = [], signorini.condensed
+
+    def reading(*args):
+        raw = route(*args)
+        try:
+            seen.append(float(np.sum(raw.u[0])))
+        except RuntimeError as exc:
+            seen.append(type(exc))
+        return raw
+
+    monkeypatch.setattr(signorini, "condensed", reading)
+    got = solver.solve_many(_cases(3))
+    assert seen == [RuntimeError] * 3
+    assert all(type(sol.u) is list and np.isfinite(_fields(sol)).all() for sol in got)

@@ -12,6 +12,7 @@ Below the errors, the immutability of built descriptions: :class:`Frozen` (objec
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Mapping
 
@@ -59,6 +60,17 @@ class NonUniqueWarning(UserWarning):
     translation along a direction no contact carrying force sees (a sphere touching one node on its axis)
     is free within the interval its open rows allow; the displacements, potentials, contact forces and
     the other translations are the same for every solution. The message names the direction."""
+
+
+def user_stacklevel() -> int:
+    """The ``stacklevel`` of ``warnings.warn`` called where this is called that names the first frame outside the
+    cvxcontact package: the user's line, however many of the package's calls lie between (``cvxcontact.solve``,
+    ``ContactSolver.solve``, ``ContactSolver.solve_many`` reach the same warning through different depths)."""
+    package = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    frame, level = sys._getframe(1), 1
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 class SweepResultsError(CvxContactError, ValueError):

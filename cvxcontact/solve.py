@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import time
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 
 from .backends import DEFAULT_METHOD, METHODS, backend, choose, describe
@@ -21,7 +21,7 @@ from .backends.run import run
 from .backends.start import ContactState, deferred_state
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError
+from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError, user_stacklevel
 from .fem.space import space
 from .physics.scene import Scene
 from .solution.bound import check_covered as check_bound_covered
@@ -236,7 +236,11 @@ class ContactSolver:
         defer`), its factors read once for all (timed as ``batched_sweeps`` and ``batched_backward`` in the
         stage timings of the first of them). The answers are :meth:`solve`'s to rounding (a batched sweep sums in
         another order), checked and estimated as :meth:`solve`'s. Every scene is checked against the prepared
-        geometry before anything is solved (SceneError, naming what differs)."""
+        geometry before anything is solved (SceneError, naming what differs; one too if ``scenes`` is a Scene or
+        not a sequence of them)."""
+        if isinstance(scenes, Scene) or not isinstance(scenes, Iterable):
+            raise SceneError(f"solve_many takes a sequence of Scenes (the load cases), got {type(scenes).__name__}; "
+                             "one load case: solve(scene) or solve_many([scene])")
         scenes = list(scenes)
         for scene in scenes:
             if not self.problem.accepts(scene):
@@ -247,11 +251,12 @@ class ContactSolver:
             chunk = [self.problem.with_loads(s) for s in scenes[len(out):len(out) + BATCH]]
             each = (time.perf_counter() - t0) / len(chunk)
             t1 = time.perf_counter()
-            if not self._cache.prepare(chunk):          # nothing kept yet: this one alone builds it
-                out.append(self._solve(chunk[0], each))
-                continue
-            self._setup["batched_sweeps"] = time.perf_counter() - t1
-            out.extend(self._solve_batch(chunk, each))
+            while chunk and not self._cache.prepare(chunk):    # nothing kept (yet, or ever on this route): one
+                out.append(self._solve(chunk.pop(0), each))    # alone, its problem derived once
+                t1 = time.perf_counter()
+            if chunk:
+                self._setup["batched_sweeps"] = time.perf_counter() - t1
+                out.extend(self._solve_batch(chunk, each))
         return out
 
     def _solve_batch(self, problems, loads: float) -> list[Solution]:
@@ -269,6 +274,8 @@ class ContactSolver:
         finally:
             spent = condensation.flush()
         runs[0][2]["batched_backward"] = spent
+        for _, raw, _ in runs:                          # the fields the flush made (Held lists): plain lists
+            raw.u, raw.phi = list(raw.u), list(raw.phi)
         out = []
         for problem, raw, timings in runs:
             if self.method != method:
@@ -313,10 +320,10 @@ class ContactSolver:
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
         for message in rowless(sol):
-            warnings.warn(message, ResolutionWarning, stacklevel=5)
+            warnings.warn(message, ResolutionWarning, stacklevel=user_stacklevel())
         if self.estimate and not unestimated:
             for message in unresolved(sol):
-                warnings.warn(message, ResolutionWarning, stacklevel=5)
+                warnings.warn(message, ResolutionWarning, stacklevel=user_stacklevel())
         return sol
 
     def _fallback_of(self, raw):
@@ -357,11 +364,11 @@ class ContactSolver:
         p, term = self.problem, self.problem.term
         if term.finish_declined(p, raw, self.settings.polish):
             warnings.warn(f"{declined_words(repr(p.scene), p.condition, raw)}:\n{sol.report()}", ResidualWarning,
-                          stacklevel=6)
+                          stacklevel=user_stacklevel())
         elif not sol.ok:
             hint = "" if raw.polished else term.unfinished_hint      # the term's words on its unfinished answer
             warnings.warn(f"the solution of {p.scene!r} ({p.condition}) fails its checks at tol={self.tol:g}:\n"
-                          f"{sol.report()}{hint}", ResidualWarning, stacklevel=6)
+                          f"{sol.report()}{hint}", ResidualWarning, stacklevel=user_stacklevel())
 
     @property
     def cache(self) -> Cache:

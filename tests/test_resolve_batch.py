@@ -174,3 +174,78 @@ def test_more_load_cases_than_a_batch_go_in_batches(monkeypatch):
     assert sweeps[0] == [2, 2, False]
     for a, b in zip(got, expected):
         assert rel(_fields(a), _fields(b)) < 1e-12 and rel(a.contact.force, b.contact.force) < 1e-9
+
+
+@pytest.mark.parametrize("factorization", FACTORIZATIONS)
+def test_after_solve_many_its_load_cases_are_swept_afresh(factorization):
+    """The batch's sweeps end with it: solve() of one of its load cases (not the last) afterwards makes its own single
+    forward sweep, and answers bit for bit as a solver that took the same load cases one at a time; the sweep kept
+    after the batch holds its own column, not a view of the batch's whole right-hand side (before: the batched sweep
+    was reused, PARDISO's rounding then differing from the single sweep's, and all the batch's columns were held)."""
+    scenes = _cases(3)
+    batched, alone = (cc.ContactSolver(two_blocks(), method="condensed", factorization=factorization)
+                      for _ in range(2))
+    batched.solve()
+    alone.solve()
+    batched.solve_many(scenes)
+    for s in scenes:
+        alone.solve(s)
+    kept = batched.cache.condensation._loaded[0][1].state               # the upper block's last sweep
+    assert kept.base is None or kept.base.size == kept.size
+    sweeps = _sweeps(batched)
+    a, b = batched.solve(scenes[0]), alone.solve(scenes[0])
+    assert sweeps[0] == [False]                                             # one single forward sweep
+    assert np.array_equal(_fields(a), _fields(b)) and np.array_equal(a.contact.force, b.contact.force)
+
+
+@pytest.mark.parametrize("given", [None, 3, "scene"], ids=["None", "a number", "a Scene"])
+def test_solve_many_takes_a_sequence_of_scenes(given):
+    """A Scene itself, or no sequence at all: SceneError naming what was given and what to pass (before: a bare
+    TypeError, "'Scene' object is not iterable"); the solver is still usable."""
+    solver = cc.ContactSolver(two_blocks(), method="condensed", factorization="superlu")
+    with pytest.raises(SceneError, match="sequence of Scenes.*solve_many\\(\\[scene\\]\\)"):
+        solver.solve_many(two_blocks() if given == "scene" else given)
+    assert solver.solve_many([]) == [] and solver.solve_many(_cases(1))[0].ok
+
+
+@pytest.mark.parametrize("method, first", [("sparse", True), ("condensed", False)],
+                         ids=["a route keeping no condensation", "solve_many as the first call"])
+def test_solve_many_derives_each_load_case_once(monkeypatch, method, first):
+    """Each load case's problem is derived once (DiscreteProblem.with_loads), whether the route keeps a
+    condensation or not (before: on a route keeping none, the sparse one here, every load case solved alone
+    re-derived the rest of its batch: 36 derivations for 8 load cases; 15 when solve_many built the condensation)."""
+    from cvxcontact.discrete import DiscreteProblem
+
+    solver = cc.ContactSolver(two_blocks(), method=method, factorization="superlu")
+    if first:
+        solver.solve()
+    derived, with_loads = [], DiscreteProblem.with_loads
+    monkeypatch.setattr(DiscreteProblem, "with_loads", lambda self, scene: derived.append(scene) or
+                        with_loads(self, scene))
+    scenes = _cases(8)
+    got = solver.solve_many(scenes)
+    assert len(derived) == 8 and all(sol.ok for sol in got)
+
+
+def test_fields_held_by_the_batch_refuse_to_be_read_before_they_are_made(monkeypatch):
+    """A route that read its fields under Condensation.defer (before flush made them) fails at once (RuntimeError)
+    instead of reading a placeholder (before: NaN arrays, on which every comparison is silently False); after the
+    batch every answer's fields are plain lists of finite arrays, as solve()'s."""
+    from cvxcontact.backends import signorini
+
+    solver = cc.ContactSolver(two_blocks(), method="condensed", factorization="superlu")
+    solver.solve()
+    seen, route = [], signorini.condensed
+
+    def reading(*args):
+        raw = route(*args)
+        try:
+            seen.append(float(np.sum(raw.u[0])))
+        except RuntimeError as exc:
+            seen.append(type(exc))
+        return raw
+
+    monkeypatch.setattr(signorini, "condensed", reading)
+    got = solver.solve_many(_cases(3))
+    assert seen == [RuntimeError] * 3
+    assert all(type(sol.u) is list and np.isfinite(_fields(sol)).all() for sol in got)

@@ -15,7 +15,7 @@ from .factor import Forward
 from .finish.lcp import closed_solve
 from .released import Released
 
-__all__ = ["Condensation", "condensation", "split", "program_fields", "held_cone", "release_held"]
+__all__ = ["Condensation", "Held", "condensation", "split", "program_fields", "held_cone", "release_held"]
 
 
 class Condensation:
@@ -48,7 +48,7 @@ class Condensation:
         self.sweeps = None
         self._loaded = [None] * len(self.bodies)   # per body (F, its forward sweep) of the last load case
         self._batched = [[] for _ in self.bodies]  # per body [(F, its forward sweep)] of the prepared load cases
-        self._deferred = None                      # [(x, body, sweep, v)] of the held backward sweeps (defer)
+        self._deferred = None          # [((u, phi) Held, sweeps, v, blocks)] of the held backward sweeps (defer)
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
 
@@ -95,11 +95,12 @@ class Condensation:
     def prepare(self, problems) -> None:
         """Batch the forward sweeps of the load cases ``problems`` (problems of this geometry and contact rows):
         per body, one sweep of all their distinct scaled loads as the columns of one right-hand side (each
-        factor read once for all of them: the sweeps are bound by reading the factors), kept until the next call
-        for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of them. A batched
-        sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum in another
-        order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load case). A body
-        whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load at a time."""
+        factor read once for all of them: the sweeps are bound by reading the factors), kept until :meth:`flush`
+        ends the batch for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of
+        them. A batched sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum
+        in another order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load
+        case). A body whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load
+        at a time."""
         for k, c in enumerate(self.bodies):
             self._batched[k] = []
             if isinstance(c.factor, Released):
@@ -156,35 +157,48 @@ class Condensation:
             y = y + dy
             v = [vk - c.factor.schur_solve(c.jump.T @ (E.T @ dy)) for vk, c in zip(v, self.bodies)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
-        if self._deferred is not None:            # the fields filled in by flush(): NaN until then
-            x = [np.full(c.factor.n, np.nan) for c in self.bodies]
-            self._deferred.extend((xk, k, f, vk) for k, (xk, f, vk) in enumerate(zip(x, self.sweeps, v)))
-            return (*split(self.bodies, x, problem.blocks), y)
+        if self._deferred is not None:            # the fields made by flush(): unreadable until then
+            held = Held(), Held()
+            self._deferred.append((held, list(self.sweeps), v, problem.blocks))
+            return (*held, y)
         return (*self.invert_gamma(problem, v, timings), y)
 
     def defer(self) -> None:
         """Hold the backward sweeps of :meth:`invert_closed` until :meth:`flush`: the fields it hands out are
-        arrays that :meth:`flush` fills (NaN until then), so that the sweeps of several load cases run as the
-        columns of one right-hand side (``ContactSolver.solve_many``; its route reads no field before the
-        read-back)."""
+        :class:`Held` lists, which :meth:`flush` fills and which refuse to be read before, so that the sweeps of
+        several load cases run as the columns of one right-hand side (``ContactSolver.solve_many``; its route
+        reads no field before the read-back, and one that did would raise, not read a placeholder)."""
         self._deferred = []
 
     def flush(self) -> float:
         """Make the backward sweeps held since :meth:`defer` into the fields handed out (per body one sweep of all
         of them as the columns of one right-hand side; one alone, or a body whose factors were freed, one at a time:
-        the single sweep's numbers), and stop holding; the seconds it took."""
+        the single sweep's numbers), and stop holding; the batch of :meth:`prepare` ends too (its sweeps dropped:
+        a later load case is swept as :meth:`forward` alone would); the seconds it took."""
         t0 = time.perf_counter()
         pending, self._deferred = self._deferred or [], None
+        x = [[] for _ in pending]                     # per held load case, its bodies' unknowns
         for k, c in enumerate(self.bodies):
-            mine = [(x, f, v) for x, j, f, v in pending if j == k]
-            if len(mine) == 1 or isinstance(c.factor, Released):
-                for x, f, v in mine:
-                    x[:] = c.factor.backward(f, v)
-            elif mine:
-                X = c.factor.backward(Forward(None, np.column_stack([f.state for _, f, _ in mine])),
-                                      np.column_stack([v for _, _, v in mine]))
-                for j, (x, _, _) in enumerate(mine):
-                    x[:] = X[:, j]
+            if len(pending) == 1 or isinstance(c.factor, Released):
+                for xs, (_, f, v, _) in zip(x, pending):
+                    xs.append(c.factor.backward(f[k], v[k]))
+            elif pending:
+                X = c.factor.backward(Forward(None, np.column_stack([f[k].state for _, f, _, _ in pending])),
+                                      np.column_stack([v[k] for _, _, v, _ in pending]))
+                for j, xs in enumerate(x):
+                    xs.append(X[:, j].copy())
+        for xs, ((u, phi), _, _, blocks) in zip(x, pending):
+            fields = split(self.bodies, xs, blocks)
+            u.fill(fields[0])
+            phi.fill(fields[1])
+        for k, batched in enumerate(self._batched):    # the batch is over: a later load case sweeps afresh (as
+            last = self._loaded[k]                     # solve() alone would), and the last sweep kept holds a
+            if last is not None and any(s is last[1] for _, s in batched):     # column of its own, not a view of
+                own = Forward(last[1].reduced, np.array(last[1].state))       # the batch's whole right-hand side
+                if self.sweeps is not None:
+                    self.sweeps = [own if s is last[1] else s for s in self.sweeps]
+                self._loaded[k] = (last[0], own)
+        self._batched = [[] for _ in self.bodies]
         return time.perf_counter() - t0
 
     def invert_gamma(self, problem, v, timings):
@@ -193,6 +207,36 @@ class Condensation:
         x = [c.factor.backward(f, vk) for c, f, vk in zip(self.bodies, self.sweeps, v)]
         timings["back_substitution"] = timings.get("back_substitution", 0.0) + time.perf_counter() - t0
         return split(self.bodies, x, problem.blocks)
+
+
+class Held(list):
+    """The per-body fields (u or phi) of a backward sweep held by :meth:`Condensation.defer`: a list that refuses
+    to be read (RuntimeError) until :meth:`Condensation.flush` fills it, so that a route reading its fields before
+    the batch's sweeps are made fails at once instead of reading a placeholder."""
+
+    filled = False
+
+    def fill(self, values) -> None:
+        """The fields, once made (:meth:`Condensation.flush`)."""
+        self.filled = True
+        super().extend(values)
+
+    def _unfilled(self) -> None:
+        if not self.filled:
+            raise RuntimeError("the fields of a held backward sweep were read before Condensation.flush made them: "
+                               "a route that reads its fields must not run under Condensation.defer")
+
+    def __iter__(self):
+        self._unfilled()
+        return super().__iter__()
+
+    def __getitem__(self, index):
+        self._unfilled()
+        return super().__getitem__(index)
+
+    def __len__(self):
+        self._unfilled()
+        return super().__len__()
 
 
 def _nonzeros(block) -> int:

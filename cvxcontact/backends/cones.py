@@ -423,8 +423,8 @@ def finish_cuts_mixed(problem, timings, raw, blocks=None, energy=None, keep: dic
         prev["y"] = y = x[2]
         taus = list(x[3]) if tr else []
         parts = [J @ uk for J, uk in zip(jumps, x[0])]
-        moved = sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g)))
-        slack, scale = nodal_slack(sum(parts) + moved - g, reach @ np.abs(kkt.stack(x)) + np.abs(g), g, held)
+        jump = sum(parts) + problem.row_translation(taus)               # the obstacles moved
+        slack, scale = nodal_slack(jump - g, reach @ np.abs(kkt.stack(x)) + np.abs(g), g, held)
         return y, slack, scale, (x, taus), active
 
     segment, t = seed_points(B, raw.beta, width=width)
@@ -611,7 +611,7 @@ def mixed(problem, cache, settings, timings, method: str = "condensed") -> RawRe
     z = B.T @ beta.ravel() + release_held(0.0, limit_reaction(model.contact, model.limit_rows, len(g)), held)[1]
     u, phi, r = program_fields(model, problem, cond)
     taus = [np.asarray(t.value, dtype=float).ravel() for t in getattr(model, "t", [])]
-    r = r + sum((R @ tau for (R, _), tau in zip(problem.translations, taus)), np.zeros(len(g)))   # obstacles moved
+    r = r + problem.row_translation(taus)                     # the obstacles moved
     y = w * law.pressure(r) + z
     if cond is not None:
         # the interior dofs for the interior point's Gamma values v (one backward sweep each), as the full

@@ -30,13 +30,14 @@ def superlu_bonded(problem):
     ``cvxcontact.backends.elimination.ordering``), order + factorisation + solve of the bonded system."""
     import scipy.sparse.linalg as spla
 
-    from cvxcontact.backends.elimination import _SUPERLU, ordering
+    from cvxcontact.backends.elimination import ordering
+    from cvxcontact.backends.factor import SUPERLU_OPTIONS
 
     K, rhs, A, _, _ = bonded_system(problem)
     rows = np.arange(A.shape[0], K.shape[0])                               # the closed rows come last in K
     t0, c0 = time.perf_counter(), time.process_time()
     perm = ordering(K, rows)
-    lu = spla.splu(K[perm][:, perm].tocsc(), **_SUPERLU)
+    lu = spla.splu(K[perm][:, perm].tocsc(), **SUPERLU_OPTIONS)
     z = np.empty_like(rhs)
     z[perm] = lu.solve(rhs[perm])
     return time.perf_counter() - t0, time.process_time() - c0, residual(K, z, rhs)

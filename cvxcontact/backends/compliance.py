@@ -50,7 +50,7 @@ def program_penetration(problem, u, taus) -> np.ndarray:
     """r = E [u_nu] + R t - E g at the program's values ``u``, ``taus`` (scaled)."""
     E, g = problem.E, problem.g
     return (sum(E @ (b.jump @ uk) for b, uk in zip(problem.blocks, u)) - g
-            + sum((R @ tau for (R, _), tau in zip(problem.translations, taus)), np.zeros(len(g))))
+            + problem.row_translation(taus))
 
 
 def compliance_forces(problem, model: ContactModel, u, taus) -> tuple:
@@ -174,7 +174,6 @@ def sparse(problem, settings, timings) -> RawResult:
     (:func:`~cvxcontact.backends.finish.solve_sparse_compliance`; :func:`dependent_newton` where the rows
     with a condition r <= l can depend on each other)."""
     law, w, E, g, blocks = problem.scaled_law, problem.weights, problem.E, problem.g, list(problem.blocks)
-    tr = list(problem.translations)
     t0 = time.perf_counter()
     model = problem.term.program(problem)              # the compliance law's rows (compliance_program)
     timings["model"] = time.perf_counter() - t0
@@ -185,7 +184,7 @@ def sparse(problem, settings, timings) -> RawResult:
     taus = [np.asarray(t.value, dtype=float).ravel() for t in model.t]
     z = limit_reaction(model.contact, model.limit_rows, len(g))
     r = (sum(E @ (b.jump @ uk) for b, uk in zip(blocks, u))
-         + sum((R @ tau for (R, _), tau in zip(tr, taus)), np.zeros(len(g))) - g)
+         + problem.row_translation(taus) - g)
     y = w * law.pressure(r) + z
     raw.u, raw.phi, raw.y, raw.taus = u, phi, y, taus
     if settings.polish:

@@ -13,15 +13,9 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .factor import superlu
+from .factor import SUPERLU_OPTIONS, superlu
 
 __all__ = ["factorize", "ordering"]
-
-_SUPERLU = {"permc_spec": "NATURAL", "diag_pivot_thresh": 0.0, "options": {"SymmetricMode": True}}
-"""SuperLU on the matrix permuted by :func:`ordering`: no pivoting (every pivot is a quasi-definite one,
-see :func:`ordering`), so the ordering's sparsity is kept exactly. Measured on thin_layer(1500)'s bonded
-system (5.6e4 unknowns): 3.0e6 factor entries against 5.5e6 for SciPy's default (COLAMD, partial
-pivoting) and 1.5e7 (205 s) for minimum degree with partial pivoting."""
 
 
 def ordering(K, contact_rows) -> np.ndarray:
@@ -83,4 +77,4 @@ def factorize(K, perm):
     as an object with ``solve(b)`` (b a vector or a matrix of columns). The one sparse factorisation of
     this module, so that another direct solver (e.g. PARDISO) can be routed here. Raises RuntimeError
     if K is singular."""
-    return _Factor(superlu(K[perm][:, perm].tocsc(), **_SUPERLU), perm)
+    return _Factor(superlu(K[perm][:, perm].tocsc(), **SUPERLU_OPTIONS), perm)

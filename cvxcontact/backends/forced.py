@@ -88,11 +88,11 @@ def signorini(problem, cache, settings, timings) -> RawResult:
     blocks = gamma_blocks(reduction, _loads(problem, reduction, timings))
     model = _program(problem, blocks, settings, timings)
     iterations = timed_program(model.problem, settings, timings)
-    E, g, tr = problem.E, problem.g, list(problem.translations)
+    E = problem.E
     raw = RawResult(u=[v.value for v in model.u], phi=[None] * len(blocks), method="condensed",
                     y=np.asarray(model.contact.dual_value, dtype=float).ravel(), program=model.problem,
                     taus=[np.asarray(t.value, dtype=float).ravel() for t in model.t], iterations=iterations)
-    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
+    moved = problem.moved_g(raw.taus)                                   # the obstacles moved
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
     raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y),
                             reach_forces(blocks, E, raw.u, raw.phi))

@@ -136,8 +136,7 @@ def full(problem, cache, settings, timings) -> RawResult:
 
 def interior_active(problem, raw):
     """The closed rows of the interior point's answer ``raw`` (:func:`~cvxcontact.backends.finish.ipm_active`)."""
-    moved = problem.g - sum((R @ tau for (R, _), tau in zip(problem.translations, raw.taus)),
-                            np.zeros(len(problem.g)))
+    moved = problem.moved_g(raw.taus)
     parts = [problem.E @ (b.jump @ uk) for b, uk in zip(problem.blocks, raw.u)]
     return ipm_active(parts, moved, raw.y, force_displacements(problem.blocks, problem.E, raw.y),
                       reach_forces(problem.blocks, problem.E, raw.u, raw.phi))

@@ -179,8 +179,7 @@ def kept(problem, cuts, done):
 def row_slack(problem, answer) -> tuple[np.ndarray, float]:
     """([u_nu] - g at the rows of the cones for ``answer``'s displacements and obstacle translations, the largest
     displacement, at least the smallest positive float): the slack the cut rounds and :func:`kept` read."""
-    n = problem.E.shape[0]
     jump = problem.E @ sum(b.jump @ uk for b, uk in zip(problem.blocks, answer.u))
-    jump = jump + sum((R @ tau for (R, _), tau in zip(problem.translations, answer.taus)), np.zeros(n))
+    jump = jump + problem.row_translation(answer.taus)
     U = max([float(np.abs(uk).max(initial=0.0)) for uk in answer.u] + [np.finfo(float).tiny])
     return jump - problem.g, U

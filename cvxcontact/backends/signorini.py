@@ -82,8 +82,8 @@ def newton_finish(problem, raw, timings):
                                 "as they are")
         return raw
     t0 = time.perf_counter()
-    E, g, blocks, tr = problem.E, problem.g, problem.blocks, list(problem.translations)
-    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))
+    E, g, blocks = problem.E, problem.g, problem.blocks
+    moved = problem.moved_g(raw.taus)
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
     start = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y),
                        reach_forces(blocks, E, raw.u, raw.phi)) & ~problem.held_rows
@@ -138,7 +138,7 @@ def full(problem, cache, settings, timings) -> RawResult:
         if not raw.polished:
             raw.route = Route.INTERIOR_POINT_NONLINEAR_ENERGY
         return raw
-    moved = g - sum((R @ tau for (R, _), tau in zip(tr, raw.taus)), np.zeros(len(g)))     # the obstacles moved
+    moved = problem.moved_g(raw.taus)                                   # the obstacles moved
     parts = [E @ (b.jump @ uk) for b, uk in zip(blocks, raw.u)]
     slack = sum(parts) - moved
     raw.active = ipm_active(parts, moved, raw.y, force_displacements(blocks, E, raw.y),

@@ -73,7 +73,7 @@ import scipy.sparse as sp
 
 from .condensed import quasi_definite
 from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
-from .elimination import _SUPERLU, factorize, ordering  # noqa: F401  (the route's order and SuperLU)
+from .elimination import factorize, ordering
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp

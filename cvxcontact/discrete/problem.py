@@ -232,8 +232,20 @@ class DiscreteProblem:
         return allowance / self.units.displacement
 
     def moved_gap(self, taus) -> np.ndarray:
-        """The gap at the stacked nodes with the force-controlled obstacles translated by ``taus`` (scaled)."""
+        """The gap at the stacked nodes with the force-controlled obstacles translated by ``taus`` (scaled); at the
+        rows, :meth:`moved_g`."""
         return self.gap - sum((o.reduced_rows @ t for o, t in zip(self.forced, taus)), np.zeros(len(self.gap)))
+
+    def row_translation(self, taus) -> np.ndarray:
+        """R tau summed over the force-controlled obstacles (their ``translations``, R their rows' sensitivities)
+        at the rows (scaled): how far the translations ``taus`` move the rows' jump, E [u_nu] + R t
+        (docs/formulation.md §12); the part the read-backs add to the jump or take from the gap (:meth:`moved_g`)."""
+        return sum((R @ tau for (R, _), tau in zip(self.translations, taus)), np.zeros(self.E.shape[0]))
+
+    def moved_g(self, taus) -> np.ndarray:
+        """The gap at the rows with the force-controlled obstacles translated by ``taus`` (scaled):
+        :attr:`g` - :meth:`row_translation` (at the stacked nodes, :meth:`moved_gap`)."""
+        return self.g - self.row_translation(taus)
 
     def translation_sizes(self, taus) -> np.ndarray:
         """|R tau| summed over the force-controlled obstacles at the stacked nodes (scaled): the size of the terms

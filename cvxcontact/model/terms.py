@@ -93,7 +93,7 @@ def finish(problem, u, phi, y, rows, load, active, x):
             return None
         (uk, pk, yk, zk, tk), sc, sr = out
         xk = stacked(uk, pk, tk)
-        moved = g - sum((R @ t for (R, _), t in zip(tr, tk)), np.zeros(len(g)))
+        moved = problem.moved_g(tk)
         _, U = node_scales([E @ (b.jump @ ui) for b, ui in zip(blocks, uk)], moved)
         S, _ = row_scales(C, xk, d)
         Z = max(float((yk * nc).max(initial=0.0)), float((np.abs(zk) * norms).max(initial=0.0)),

@@ -515,19 +515,38 @@ def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
     each) of the pair whose first side is the :class:`_PairSide` ``mine``, of t_h, g_h, the slip and t_r summed
     over the pairs ``held`` that share that side (its own included), each point weighed 1 / (the number of those
     pairs whose elements hold it): the union of their supports counted once (obstacles each reaching part of
-    the part: the law of the whole part)."""
+    the part: the law of the whole part). Another pair is read only at the points within its elements' radius
+    of their bounding box (the only points :func:`~cvxcontact.contact.overlay.locate` can find in one: its
+    candidates lie within that radius of a centroid; each point is located alone): it adds 0 at the others, so
+    the pairs of a part's many pairs that do not meet cost a comparison of coordinates, not a search."""
+    def placed(values, at):                                         # at the rows ``at`` (a slice: all), 0 elsewhere
+        if isinstance(at, slice):
+            return values
+        out = np.zeros((len(count),) + values.shape[1:])
+        out[at] = values
+        return out
+
     fields = {name: 0.0 for name in "tgsr"}
     count = np.zeros(len(mine.all_face))
+    faces = np.asarray(mine.trace.faces)[np.maximum(mine.all_face, 0)][:, :3]
+    x = np.einsum("pv,pvd->pd", mine.all_Lf, np.asarray(mine.trace.x)[faces])       # its points in the plane
     for ps in held:
         if "t" not in ps.nodal:                                      # a frictionless pair: no t_h, no slip law
             continue
         if ps is mine:                                              # its own points: the rule on its elements
             N, live = mine.rule
             N, nodes = np.tile(N, (len(live), 1)), np.repeat(live, len(N), axis=0)
+            at = slice(None)
         else:
-            N, nodes = ps.read(mine.all_face, mine.all_Lf)
-        count += (nodes >= 0).any(axis=1)
-        fields = {name: v + ps.value(name, N, nodes) for name, v in fields.items()}
+            corners = ps.corners.reshape(-1, 2)
+            reach = 1.001 * np.linalg.norm(ps.corners - ps.corners.mean(axis=1, keepdims=True), axis=2).max(initial=0.0)
+            at = np.flatnonzero((mine.all_face >= 0) & (x >= corners.min(axis=0, initial=np.inf) - reach).all(axis=1)
+                                & (x <= corners.max(axis=0, initial=-np.inf) + reach).all(axis=1))
+            if not len(at):
+                continue
+            N, nodes = ps.read(mine.all_face[at], mine.all_Lf[at])
+        count[at] += (nodes >= 0).any(axis=1)
+        fields = {name: v + placed(ps.value(name, N, nodes), at) for name, v in fields.items()}
     cone, slides = slip.friction_points(fields["t"], fields["g"], fields["s"], fields["r"])
     w = (mine.all_w / np.maximum(count, 1)).reshape(e, q)
     return (w * cone.reshape(e, q)).sum(axis=1), (w * slides.reshape(e, q)).sum(axis=1)

@@ -102,3 +102,15 @@ def block3d(obstacles):
     body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
+
+
+def lowered(lo, hi, dim, drop=3e-6, kink=None):
+    """The plane (2D: line) y = -``drop`` (3D: z) under lo <= x < hi, its distance along the ray -y (-z); +inf off
+    it. ``kink``: at the floor up to x = kink, then falling by 1e-5 per m (``drop`` not used): beside a whole
+    floor under the block pushed by DELTA it is touched where x <= kink only (:func:`block2d`, :func:`block3d`)."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        below = drop if kink is None else 1e-5 * np.maximum(0.0, x[:, 0] - kink)
+        return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, dim - 1] + below, np.inf)
+    return cc.Rigid("lowered", distance, f"a floor lowered under {lo} <= x < {hi}",
+                    sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)

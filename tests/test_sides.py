@@ -13,7 +13,7 @@ Read once, every pair reads the closed-form pressure.
 import numpy as np
 import pytest
 from hex_scenes import DELTA, M_S, H
-from reach_scenes import block2d, block3d, box_on_boxes, line, strip
+from reach_scenes import block2d, block3d, box_on_boxes, line, lowered, strip
 
 import cvxcontact as cc
 from cvxcontact.solution.sides import side_multiplier
@@ -100,3 +100,41 @@ def test_compliance_pair_beside_a_signorini_pair_reads_alone():
     own = itf.multiplier(np.asarray(sol.contacts[0].force, dtype=float))
     # measured <= 1.4e-16 relative, 5 kernel sets (its forces summed into the side: 0.47)
     assert np.abs(sol.contacts[0].lam - own).max() <= 1e-13 * np.abs(own).max()
+
+
+SCENES = {2: (block2d, line), 3: (block3d, strip)}
+
+
+@pytest.mark.parametrize("dim, degree", [(2, 1), (2, 2), (3, 1), (3, 2)])
+def test_untouched_obstacle_beside_the_floor_reads_nothing(dim, degree):
+    """A whole floor and an obstacle 3e-6 below it under x < 0.6, never touched (its forces 0): it reads lambda_h
+    0, not a share of the floor's, and the estimate is the single floor's (every term 0). Shared by the number of
+    pairs reaching each node it read p / 2 and the complementarity charged that on its open gap (4.04 2D P1, 3.81
+    2D P2, 3.59 3D P1, 4.85 3D P2 against norm^2 53.8)."""
+    block, floor = SCENES[dim]
+    sol = cc.solve(block((floor(-1.0, 2.0), lowered(-1.0, 0.6, dim))), "sigma1", degree=degree)
+    # measured 0 (5 kernel sets)
+    assert np.abs(sol.contacts[1].lam).max() <= 1e-12 * np.abs(sol.contacts[0].lam).max()
+    est = sol.estimate
+    # measured |part| <= 1.8e-16 of norm^2 53.8 (5 kernel sets)
+    assert max(abs(v) for v in est.parts.values()) <= 1e-12 * est.norm ** 2
+
+
+@pytest.mark.parametrize("dim, degree", [(2, 1), (3, 1), (3, 2)])
+def test_obstacle_open_at_a_node_takes_no_share_of_it(dim, degree):
+    """A floor under x >= 0.3 and an obstacle under x < 0.6 at the floor up to x = 0.3, then falling away: both
+    reach the nodes 0.3 <= x < 0.6, where the floor is closed and the other open (by 3.3e-7 m and more; no node
+    closed for both, so no dependent rows). There the open pair's lambda_h is 0 (the node's share goes to the
+    floor), and the sum is the side's (contact traction 0, as on one floor). Shared by the number of pairs reaching
+    each node it read p / 2 there (contact traction 0 too). 2D P2 pairs, which share by runs, read their own
+    multipliers where one pair is closed at a node and another open (as before the read once)."""
+    block, floor = SCENES[dim]
+    sol = cc.solve(block((floor(0.3, 2.0), lowered(-1.0, 0.6, dim, kink=0.3))), "sigma1", degree=degree)
+    c = sol.contacts[1]
+    opened = np.asarray(c.gap) - np.asarray(c.jump) > 1e-3 * DELTA            # x >= 1/3: open by 3.3e-7 or more
+    assert opened.any() and not opened.all()
+    # measured 0 (5 kernel sets)
+    assert np.abs(c.lam[opened]).max() <= 1e-12 * np.abs(sol.contacts[0].lam).max()
+    est = sol.estimate
+    # measured |contact traction| <= 1.2e-16 of norm^2 (5 kernel sets)
+    assert abs(est.parts["contact traction"]) <= 1e-12 * est.norm ** 2

@@ -101,10 +101,13 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     interface = trace.kept(itf)
     Ety = E.T @ y
     compliant = [i for i, law in enumerate(getattr(problem.rows, "laws", ())) if law.compliant]   # their own law's
-    lam = side_multiplier(itf, Ety, compliant)    # scaled; the Riesz representer in X_h (2D: M lam = E^T y), per side
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
+    reach = max(float(sizes.max(initial=0.0)), float(np.abs(gap + shift).max(initial=0.0)),
+                *(float(np.abs(uk).max(initial=0.0)) for uk in u))          # the scene's displacement scale
+    closed = on | (gap + shift - jump <= tol * reach)          # each pair's contact closed, per node (sides.py)
+    lam = side_multiplier(itf, Ety, compliant, closed)   # scaled; the Riesz representer in X_h (M lam = E^T y)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k])                                        # bodies held by the contact only
         if len(modes):

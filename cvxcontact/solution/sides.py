@@ -13,8 +13,11 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
   where they do not (2D P2: the union run's P2 line; not a run: each pair keeps its own ``multiplier``). The
   estimate sums the pairs' functions, so each pair reads its share of the side's lambda_h at its nodes: each
   node's basis function lives on the whole part (P1, 3D P2), so the share is one over the number of the group's
-  pairs reaching the node; a 2D P2 pair's function lives on its run alone, so the shares are the run's
-  (``shares`` of the union: on each segment the runs holding it sum to 1).
+  pairs reaching the node (of those whose contact is closed there, where one is: an obstacle open at a node,
+  its force 0, takes no share of the floor's lambda_h, which its complementarity would charge on its open gap);
+  a 2D P2 pair's function lives on its run alone, so the shares are the run's (``shares`` of the union: on each
+  segment the runs holding it sum to 1; where one pair is closed at a node and another open, each pair keeps its
+  own ``multiplier``). A pair closed nowhere (never touched) reads its own, 0.
 - two-body pairs of planar surfaces (3D) sharing a side (a body on several bodies): lambda_h in X_h of the
   group, the functions of every side on the pairs' nodes stacked (one column block per side, a shared side's
   functions read by each of its pairs), the pairs' masses block diagonal, the Riesz representer of the stacked
@@ -37,22 +40,27 @@ from ..contact.riesz import TraceRiesz
 __all__ = ["side_multiplier"]
 
 
-def side_multiplier(stack, r, alone=()) -> np.ndarray:
+def side_multiplier(stack, r, alone=(), active=None) -> np.ndarray:
     """lambda_h at the stacked nodes of X_h of every pair of ``stack`` (the contact lines' stack: ``interfaces``,
     ``members``, ``offsets``) for the stacked row forces ``r`` (units of ``r`` per unit length or area), read once
     per side where several pairs hold one (module docstring). The pairs ``alone`` (indices: a normal-compliance
     law's, whose read-back sets lambda_h from its law) and a single pair (``stack`` the pair itself) read their own
-    ``multiplier``."""
+    ``multiplier``. ``active`` (bool per stacked node of X_h, or None): the nodes where each pair's contact is
+    closed; a pair closed nowhere reads its own (its forces, 0: lambda_h 0, not a share of its neighbours'), and
+    the shares of obstacles on one part go to the pairs closed at each node (module docstring)."""
     r = np.asarray(r, dtype=float)
     if not hasattr(stack, "interfaces"):                             # one pair: its own
         return stack.multiplier(r)
     pairs, at = stack.interfaces, stack.offsets
     parts = [r[at[i]:at[i + 1]] for i in range(len(pairs))]
+    closed = None if active is None else [np.asarray(active[at[i]:at[i + 1]], dtype=bool) for i in range(len(pairs))]
+    alone = set(alone) | ({i for i, c in enumerate(closed) if not c.any()} if closed else set())
     lam: list = [None] * len(pairs)
-    for group in _groups(stack, set(alone)):
+    for group in _groups(stack, alone):
         read = None
         if len(group) > 1:
-            read = _obstacles([pairs[i] for i in group], [parts[i] for i in group])
+            read = _obstacles([pairs[i] for i in group], [parts[i] for i in group],
+                              None if closed is None else [closed[i] for i in group])
             if read is None:
                 read = _bodies(stack, group, [parts[i] for i in group])
         for i, values in zip(group, read or [pairs[i].multiplier(parts[i]) for i in group]):
@@ -86,9 +94,11 @@ def _groups(stack, alone) -> list[list[int]]:
     return list(groups.values())
 
 
-def _obstacles(pairs, forces):
+def _obstacles(pairs, forces, closed=None):
     """Obstacles on one part: each pair's lambda_h read once from the forces summed (module docstring), or None
-    if the group is not that (a two-body pair in it, or a pair that reads no union)."""
+    if the group is not that (a two-body pair in it, or a pair that reads no union). ``closed`` (per pair, bool
+    per node of its X_h, or None): where each pair's contact is closed; a node's share goes to the pairs closed
+    there (one over their number), to all the pairs reaching it where none is."""
     if not all(p.rigid and getattr(p, "reaching", None) and getattr(p, "representer", None) is None
                and np.array_equal(p.traces[0].nodes, pairs[0].traces[0].nodes) for p in pairs):
         return None
@@ -98,10 +108,16 @@ def _obstacles(pairs, forces):
     union = pairs[0].reaching(count > 0)
     if union is None:                                                # no space of their union (2D P2: not a run)
         return None
+    shares = getattr(union, "shares", None)
+    on = None if closed is None else [s.T @ c.astype(float) for s, c in zip(S, closed)]   # 1: closed there
+    if on is not None and shares is not None and ((count > 1) & (sum(on) > 0) & (sum(on) < count)).any():
+        return None              # 2D P2 runs share by segments, not by node: one closed and one open pair at a node
     U = _selection(union)
     full = U.T @ union.multiplier(U @ f)
-    shares = getattr(union, "shares", None)
     weights = shares(S) if shares else [1.0 / np.maximum(count, 1.0)] * len(S)
+    if on is not None and shares is None:            # an obstacle open at a node carries no share of it
+        n_on = sum(on)
+        weights = [np.where(n_on > 0, o / np.maximum(n_on, 1.0), w) for o, w in zip(on, weights)]
     return [s @ (full * w) for s, w in zip(S, weights)]
 
 

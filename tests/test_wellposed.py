@@ -372,13 +372,13 @@ def test_the_one_program_proof_of_no_free_direction_agrees_with_the_programs_of_
     a third of them with a direction every row opens or leaves unchanged): where the proof holds, the 2 m programs
     solved without it find no direction; where they find one, the proof does not hold (among them cones that are
     {0} but open a free direction within the programs' slack: one row closed by eps < 1e-9 along it); and every
-    other cone where they find none is proved (measured: 22 of 22, none left to the programs), so the saving is
+    other cone where they find none is proved (measured: 11 of 11, none left to the programs), so the saving is
     real."""
     from cvxcontact.fem import kernel
 
     rng = np.random.default_rng(20261206)
     proved = none = closed = 0
-    for trial in range(120):
+    for trial in range(60):
         m = int(rng.integers(1, 13))
         A = rng.standard_normal((int(rng.integers(1, 3 * m + 4)), m))
         if trial % 3 == 0:                  # every row opens d or leaves it unchanged: d is free
@@ -401,4 +401,4 @@ def test_the_one_program_proof_of_no_free_direction_agrees_with_the_programs_of_
         closed += near and found is not None
         none += found is None and not near
         proved += ok and not near
-    assert closed >= 10 and none >= 15 and proved == none       # measured: 20 closed within the slack; 22, 22
+    assert closed >= 5 and none >= 8 and proved == none         # measured: 10 closed within the slack; 11, 11

@@ -6,7 +6,11 @@ the core that frees first, not before its install is done, with the job times of
   parts of CPU shares ``--shares`` (.ci/run's CI_PARTS), queued after A and B, every set's first part, then every
   set's second, ...; each part beyond the first costs ``--overhead`` s more (its pytest process: imports, a clone).
 
-    python benchmarks/ci_schedule.py [--shares "4 2 1 1"] [--overhead 2]
+    python benchmarks/ci_schedule.py [--shares "4 2 1 1"] [--overhead 2] [--less NUMERICS OTHER]
+
+``--less``: the CPU s of test work taken off (NUMERICS: of the numerics tests, which run in A, B and every kernel
+set of K; OTHER: of run A's other tests), each job's time shortened by them times its wall per CPU s (the job's
+time over the numerics tests' CPU s, ``NUMERICS_CPU``; run A's other tests at 1 s a CPU s).
 """
 
 import argparse
@@ -18,7 +22,17 @@ RUNS = {
     "ci_run 11:37 (2445 s, loaded)": {"iA": 45, "iB": 29, "A": 1142 + 74, "B": 817, "K": [868, 873, 713], "mkl": 43},
     "ci_run10b (08:42, 3457 s, loaded)": {"iA": 52, "iB": 51, "A": 2092 + 109, "B": 1394, "K": [1365, 911, 592],
                                           "mkl": 25},
+    "ci_run 14:28 (1686 s, parts)": {"iA": 44, "iB": 27, "A": 880, "B": 544, "K": [599, 591, 608], "mkl": 22},
 }
+NUMERICS_CPU = 556.0
+"""CPU s of the numerics tests (one BLAS thread, default kernels) when ci_run 14:28 ran (.ci/numerics_cpu.tsv's
+sum then, with the modules added since: benchmarks/results/ci_time.md)."""
+
+
+def less(r: dict, numerics: float, other: float) -> dict:
+    """``r`` with ``numerics`` CPU s of numerics tests and ``other`` of run A's other tests taken off each job."""
+    k = numerics / NUMERICS_CPU
+    return {**r, "A": r["A"] - numerics - other, "B": r["B"] * (1 - k), "K": [d * (1 - k) for d in r["K"]]}
 
 
 def schedule(jobs: list[tuple[str, float, float]], cores: int = 2) -> float:
@@ -51,10 +65,12 @@ if __name__ == "__main__":
     cli = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cli.add_argument("--shares", default="4 2 1 1")
     cli.add_argument("--overhead", type=float, default=2.0)
+    cli.add_argument("--less", nargs=2, type=float, default=(0.0, 0.0), metavar=("NUMERICS", "OTHER"))
     args = cli.parse_args()
     shares = [float(s) for s in args.shares.split()]
     print(f"{'run':36s} {'before':>7s} {'after':>7s} {'saved':>6s} {'both busy':>9s}")
     for name, r in RUNS.items():
+        r = less(r, *args.less)
         work = r["A"] + r["B"] + sum(r["K"]) + r["mkl"] + (len(shares) - 1) * len(r["K"]) * args.overhead
         busy = r["iB"] + (work + r["iA"] - r["iB"]) / 2        # both cores busy from run B's install to the end
         b, a = before(r), after(r, shares, args.overhead)

@@ -364,3 +364,41 @@ def test_the_decision_is_invariant_under_load_and_unit_scalings(make):
         assert (got is None) == (ref is None)
         if ref is not None:
             assert got[0] == ref[0] and [n.replace("(0, 500)", "(0, 0.5)") for n in got[1]] == ref[1]
+
+
+def test_the_one_program_proof_of_no_free_direction_agrees_with_the_programs_of_each_coordinate():
+    """kernel._free_direction proves first, by one linear program and weak duality (kernel._bounded_below_half),
+    that none of its 2 m programs reaches 1/2; it then solves none of them. On random cones (m <= 12 coordinates,
+    a third of them with a direction every row opens or leaves unchanged): where the proof holds, the 2 m programs
+    solved without it find no direction; where they find one, the proof does not hold (among them cones that are
+    {0} but open a free direction within the programs' slack: one row closed by eps < 1e-9 along it); and every
+    other cone where they find none is proved (measured: 11 of 11, none left to the programs), so the saving is
+    real."""
+    from cvxcontact.fem import kernel
+
+    rng = np.random.default_rng(20261206)
+    proved = none = closed = 0
+    for trial in range(60):
+        m = int(rng.integers(1, 13))
+        A = rng.standard_normal((int(rng.integers(1, 3 * m + 4)), m))
+        if trial % 3 == 0:                  # every row opens d or leaves it unchanged: d is free
+            d = rng.standard_normal(m)
+            A -= np.outer(np.maximum(A @ d, 0.0), d) / (d @ d)
+        elif trial % 3 == 1 and m > 1:      # the cone is {0}, but the last axis closes one row by eps only: free
+            eps = 10.0 ** rng.uniform(-12, -2)     # within the programs' slack 1e-9 where eps < 1e-9
+            I = np.eye(m)
+            A = np.vstack([I[:-1], -I[:-1], -I[-1], I[0] + eps * I[-1]])
+            A = A @ np.linalg.qr(rng.standard_normal((m, m)))[0].T          # turned: no axis stands out
+        A = A[np.abs(A).max(axis=1) > 1e-12]
+        A /= np.abs(A).max(axis=1, keepdims=True)
+        b = np.full(len(A), kernel.SLACK)
+        ok = kernel._bounded_below_half(A, b, range(m), m)
+        found = next((j for j in range(m) for sign in (1.0, -1.0)
+                      if (res := kernel.linprog(-sign * np.eye(m)[j], A_ub=A, b_ub=b, bounds=(-1, 1), method="highs"))
+                      .status == 0 and -res.fun >= 0.5), None)
+        assert not (ok and found is not None), trial
+        near = trial % 3 == 1 and m > 1
+        closed += near and found is not None
+        none += found is None and not near
+        proved += ok and not near
+    assert closed >= 5 and none >= 8 and proved == none         # measured: 10 closed within the slack; 11, 11

@@ -352,7 +352,10 @@ def _scaled(kernel) -> tuple[np.ndarray, np.ndarray]:
 
 def _free_direction(A_ub, b_ub, coords, m: int) -> np.ndarray | None:
     """A direction alpha (m,) with A_ub alpha <= b_ub, |alpha|_inf <= 1 whose coordinate j reaches 1/2 in
-    either sign for some j of ``coords`` (a linear program each), scaled to |alpha|_inf = 1; or None."""
+    either sign for some j of ``coords`` (a linear program each), scaled to |alpha|_inf = 1; or None (at the cost
+    of one linear program where :func:`_bounded_below_half` proves that none reaches 1/2)."""
+    if _bounded_below_half(A_ub, b_ub, coords, m):
+        return None
     for j in coords:
         for sign in (1.0, -1.0):
             c = np.zeros(m)
@@ -363,6 +366,37 @@ def _free_direction(A_ub, b_ub, coords, m: int) -> np.ndarray | None:
                 x = np.where(np.abs(res.x) > 1e-6, res.x, 0.0)
                 return x / np.abs(x).max()
     return None
+
+
+def _bounded_below_half(A_ub, b_ub, coords, m: int) -> bool:
+    """True if no alpha with A_ub alpha <= b_ub (b_ub >= 0), |alpha|_inf <= 1 has a coordinate j of ``coords``
+    above 1/4 in either sign, proved by weak duality: for y >= 0 and z = A_ub^T y -+ e_j, +-alpha_j <= b_ub^T y +
+    |z|_1. One linear program finds y0 >= 1 with A_ub^T y0 = 0 (the rows span R^m positively: the cone
+    {A_ub alpha <= 0} is {0}); a least-squares Y with A_ub^T Y = I (A_ub of full column rank) then gives
+    y = max(+-Y_j + t y0, 0) for every objective at once. False (not proved: :func:`_free_direction` solves its
+    2 m programs, as before) where either fails or a bound, or 1e-6 |y|_1 (ten times HiGHS's feasibility
+    tolerance on the rows), is not below 1/4; where True, each of those programs stays below 1/2 by a margin, so
+    none would have named a direction: the same decision, at the cost of one program instead of 2 m."""
+    A_ub, b_ub = np.asarray(A_ub, dtype=float).reshape(-1, m), np.asarray(b_ub, dtype=float)
+    r = len(A_ub)
+    coords = np.asarray(list(coords), dtype=int)
+    if r <= m or not len(coords) or (b_ub < 0).any():
+        return False
+    res = linprog(np.ones(r), A_eq=A_ub.T, b_eq=np.zeros(m), bounds=(1, None), method="highs")
+    if res.status != 0:
+        return False
+    y0 = res.x
+    Y, _, rank, _ = np.linalg.lstsq(A_ub.T, np.eye(m)[:, coords], rcond=None)
+    if rank < m:
+        return False
+    E = np.eye(m)[:, coords]
+    worst = 0.0
+    for sign in (1.0, -1.0):
+        t = np.maximum(0.0, (-sign * Y / y0[:, None]).max(axis=0))     # sign Y_j + t y0 >= 0, column by column
+        y = np.maximum(sign * Y + t * y0[:, None], 0.0)
+        z = np.abs(A_ub.T @ y - sign * E).sum(axis=0)                    # sign e_j = A_ub^T y - z exactly
+        worst = max(worst, float((b_ub @ y + z).max()), 1e-6 * float(y.sum(axis=0).max()))
+    return worst < 0.25
 
 
 def _readable(L):

@@ -362,7 +362,9 @@ tangencies stay (zeroed, its balance read 1.4e-10 .. 1.6e-7: they are part of th
 and so do those of 1.4e-11 .. 4.4e-10 of the largest on tests/conftest.py's two_blocks((8, 4), (5, 3)) (zeroed:
 8.8e-13 .. 2.9e-11 against 2.4e-16 .. 1.2e-14 kept, under the five kernel sets with and without PARDISO; at 1e-12,
 Nehalem's SuperLU answer zeroed them at 8.8e-13, equilibrium 9.4e-14 instead of 3e-16, and its pressure moved by
-4.8e-11 against the others', tests/test_permuted.py)."""
+4.8e-11 against the others', tests/test_permuted.py). Kept, such forces read in the complementarity check: on
+two_blocks((9, 5), (6, 3)) and ((7, 4), (5, 3)) 1.1e-9 .. 6.3e-9 (0 at 1e-12, which zeroed them at a KKT residual
+of 4.6e-15 .. 5.5e-13 and moved their pressure under a renumbering by up to 2.2e-11, now 4.7e-14)."""
 
 NEWTON_ROUNDS = 4
 """Outer rounds of the tangency Newton after the cuts on the interface compliance (its contact structure)."""

@@ -539,7 +539,8 @@ def _shared_friction(mine, held, e, q) -> tuple[np.ndarray, np.ndarray]:
             at = slice(None)
         else:
             corners = ps.corners.reshape(-1, 2)
-            reach = 1.001 * np.linalg.norm(ps.corners - ps.corners.mean(axis=1, keepdims=True), axis=2).max(initial=0.0)
+            centred = ps.corners - ps.corners.mean(axis=1, keepdims=True)
+            reach = 1.001 * np.linalg.norm(centred, axis=2).max(initial=0.0)
             at = np.flatnonzero((mine.all_face >= 0) & (x >= corners.min(axis=0, initial=np.inf) - reach).all(axis=1)
                                 & (x <= corners.max(axis=0, initial=-np.inf) + reach).all(axis=1))
             if not len(at):

@@ -63,12 +63,8 @@ FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
 
 SUPERLU_OPTIONS = dict(permc_spec="NATURAL", diag_pivot_thresh=0.0, options=dict(SymmetricMode=True))
-"""SuperLU on a quasi-definite matrix already permuted into its elimination order (a body's matrix with its
-Gamma dofs last, :class:`SuperLUFactorization`; the sparse mixed system in
-:func:`~cvxcontact.backends.elimination.ordering`'s order): no pivoting (every pivot is a quasi-definite one), so
-the order's sparsity is kept exactly. Measured on thin_layer(1500)'s bonded system (5.6e4 unknowns): 3.0e6 factor
-entries against 5.5e6 for SciPy's default (COLAMD, partial pivoting) and 1.5e7 (205 s) for minimum degree with
-partial pivoting."""
+"""SuperLU without pivoting on a quasi-definite matrix in its elimination order (its sparsity kept): 3.0e6 factor
+entries on thin_layer(1500)'s bonded system against 5.5e6 with COLAMD and partial pivoting."""
 
 PARDISO_INSTALL = 'pip install "cvxcontact[pardiso]"'
 

@@ -227,7 +227,8 @@ class Scene:
         st = clarabel.DefaultSettings()
         st.verbose = False
         st.tol_gap_abs = st.tol_gap_rel = st.tol_feas = 1e-10
-        solver = clarabel.DefaultSolver(sp.triu(AI).tocsc(), q, GIr.tocsc(), b, [clarabel.NonnegativeConeT(len(rows))],
+        solver = clarabel.DefaultSolver(sp.triu(AI).tocsc(), q, GIr.tocsc(), b,
+                                        [clarabel.NonnegativeConeT(len(rows))],
                                         st)
         out = solver.solve()
         xn = x.copy()
@@ -367,7 +368,8 @@ def main() -> None:
     ap.add_argument("--width", type=float, default=1.0, help="the band: rows within this many h of the edge")
     ap.add_argument("--ident", type=float, default=1e-6, help="touching in the patch: slack / jump scale")
     ap.add_argument("--select", choices=("touching", "force"), default="touching",
-                    help="the face's candidate rows in the patch: touching, or carrying force (> ident of the largest)")
+                    help="the face's candidate rows in the patch: touching, or carrying force "
+                         "(> ident of the largest)")
     a = ap.parse_args()
     rows1, rows2, rows3, rows4 = [], [], [], []
     for n in a.n:
@@ -418,7 +420,8 @@ def main() -> None:
     if rows3:
         print("\nBand correction (per round: band rows, patch dofs, T's rows open at the answer + answer's contact "
               "rows missing)")
-        print(markdown_table(["n", "band", "k", "rounds", "certified", "band rows", "patch dofs", "T: extra+ missing-",
+        print(markdown_table(["n", "band", "k", "rounds", "certified", "band rows", "patch dofs",
+                              "T: extra+ missing-",
                               "projected CG it. warm", "cold", "jump vs condensed", "u vs condensed"], rows3))
         print("\nCost (CPU s): sigma1 + patches + hierarchy + warm projected-CG faces, against the yardstick")
         print(markdown_table(["n", "band", "k", "sigma1", "patches", "hierarchy", "faces (PCG)", "QR + NNLS (dense)",

@@ -8,7 +8,8 @@ each solving ``cases`` load cases one at a time and ``cases`` others batched (or
 loads x 0.37 and its traction x 1 + i / 1000 with i distinct over every load case of the run, so that no side reuses
 a sweep of the other). Prints the medians over the rounds of the process CPU seconds per load case, their ratio and
 share of the first solve; then the stages (``sol.info.timings``, wall s, medians over the last round's load cases;
-the batch's sweeps under ``batched_sweeps`` and ``batched_backward``, spread over its cases); then the answers of ``solve_many`` against
+the batch's sweeps under ``batched_sweeps`` and ``batched_backward``, spread over its cases);
+then the answers of ``solve_many`` against
 ``solve`` on the same load cases (max |a - b| / max |b| of u, phi, the contact forces; the estimate's total and
 indicators) and ``ok``. Also the multi-column sweep alone on the upper block: 1, 2, 4, 8 right-hand sides, CPU ms
 per right-hand side (forward, backward; medians of 5).
@@ -75,9 +76,11 @@ def main():
     worst = {"u": 0.0, "phi": 0.0, "force": 0.0, "estimate": 0.0, "indicators": 0.0}
     for x, y in zip(b, a):
         worst["u"] = max(worst["u"], rel(x.u, y.u))
-        worst["phi"] = max(worst["phi"], rel([p for p in x.phi if p is not None], [p for p in y.phi if p is not None]))
+        worst["phi"] = max(worst["phi"], rel([p for p in x.phi if p is not None],
+                                             [p for p in y.phi if p is not None]))
         worst["force"] = max(worst["force"], rel([c.force for c in x.contacts], [c.force for c in y.contacts]))
-        worst["estimate"] = max(worst["estimate"], abs(x.estimate.absolute - y.estimate.absolute) / y.estimate.absolute)
+        worst["estimate"] = max(worst["estimate"],
+                                abs(x.estimate.absolute - y.estimate.absolute) / y.estimate.absolute)
         worst["indicators"] = max(worst["indicators"], rel(x.estimate.indicators, y.estimate.indicators))
     print("solve_many vs solve, worst over the load cases: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
           + f"; ok {all(x.ok for x in a + b)}")

@@ -24,7 +24,8 @@ import cvxcontact as cc
 from cvxcontact.apps import demo
 
 STAGES = [("new Scene", "physics/scene.py", "with_loads"), ("problem's loads", "discrete/problem.py", "with_loads"),
-          ("forward sweeps", "backends/interface.py", "apply"), ("interface finish", "backends/signorini.py", "finish"),
+          ("forward sweeps", "backends/interface.py", "apply"),
+          ("interface finish", "backends/signorini.py", "finish"),
           ("fields (refinement, backward sweeps)", "backends/interface.py", "invert_closed"),
           ("read-back", "solution/readback.py", "read_back"), ("  of which checks", "solution/checks.py", "checks"),
           ("error estimate", "solution/estimate.py", "estimate"), ("resolution check", "solution/resolution.py",

@@ -1,7 +1,7 @@
 """Several load cases through a prepared ContactSolver at once (ContactSolver.solve_many): the forward sweeps of
 each body batched as the columns of one right-hand side (Condensation.prepare), and the backward sweeps of the
-fields held until every load case of the batch is finished (Condensation.defer, flush). The oracles: the same load cases
-solved one at a time by ContactSolver.solve (the batched sweep sums in another order: the same answers to
+fields held until every load case of the batch is finished (Condensation.defer, flush). The oracles: the same load
+cases solved one at a time by ContactSolver.solve (the batched sweep sums in another order: the same answers to
 rounding), a fresh solver's answer for a load case outside the batch, and the number and width of the sweeps."""
 
 import importlib
@@ -137,7 +137,8 @@ def test_solve_many_checks_every_scene_before_solving():
 
 
 @pytest.mark.parametrize("options, force_bound", [({"law": cc.NormalCompliance(stiffness=1e13)}, 1e-9),
-                                                  ({"degree": 2, "condition": "sigma1"}, 1e-9), ({"degree": 2}, 1e-6)],
+                                                  ({"degree": 2, "condition": "sigma1"}, 1e-9),
+                                                  ({"degree": 2}, 1e-6)],
                          ids=["compliance", "P2 sigma1", "P2 cones"])
 def test_the_other_condensed_routes_batch_their_forward_sweeps_and_answer_as_solve(options, force_bound):
     """A normal-compliance law, P2 nodal rows and the P2 cones ("gamma3": the cones' route, which reads the fields

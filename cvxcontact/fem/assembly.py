@@ -349,13 +349,14 @@ def constrained(body, Kuu, Kup=None, Kpp=None, nodes=None) -> BodySystem:
 def frozen(A: sp.spmatrix | None) -> sp.spmatrix | None:
     """``A`` in canonical form with read-only arrays: a compressed sparse matrix (CSR/CSC) gets its indices sorted
     and its duplicates summed, in place, once (explicit zeros are kept), then its ``data``, ``indices`` and
-    ``indptr`` made read-only; another format, or None, is returned as it is. Returns ``A``.
+    ``indptr`` made read-only; a matrix without ``indptr`` (COO, DIA...), or None, is returned as it is.
+    Returns ``A``.
 
     What a :class:`~cvxcontact.discrete.problem.DiscreteProblem` holds is only read by a solve, yet SciPy sorts a
     non-canonical matrix in place on first use by some operations (``abs(A)``, ``A.sum_duplicates()``): the order
     of its entries, and with it the rounding of sums over them, changed between a problem's first and its second
     solve. In canonical form nothing is left to sort, and any in-place change raises at once (ValueError)."""
-    if not hasattr(A, "has_canonical_format"):
+    if getattr(A, "indptr", None) is None:
         return A
     if not A.has_canonical_format:
         A.sum_duplicates()

@@ -23,6 +23,7 @@ CASES = {
                                                                                       method="sparse")),
     "2D P2 cones": SCENES["two blocks, P2 gamma3 (cones)"],
     "2D force-controlled circle": SCENES["force-controlled circle"],
+    "2D P2 conic limit (two cold solves differed before)": SCENES["layer held, P2 conic limit"],
 }
 CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
+from ..fem.assembly import frozen
 from .energy import BulkEnergy, Quadratic, abs_product, bulk_energy
 
 __all__ = ["Units", "Block", "units"]
@@ -106,17 +107,20 @@ class Block:
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
 
+    def __post_init__(self):
+        for name in ("Kuu", "jump", "Kup", "Kpp"):          # canonical and read-only: a solve cannot reorder them
+            frozen(getattr(self, name))
+
     @classmethod
     def scaled(cls, system, jump, un: Units) -> "Block":
         """The reduced blocks of ``system`` in the units ``un``, with its loads: T_u^T Kuu T_u,
         T_u^T Kup T_p, T_p^T Kpp T_p and J T_u with the prolongations of
         :func:`cvxcontact.fem.assembly.prolongation` (formulation.md §11)."""
-        Tu = system.Tu
-        blk = cls(Kuu=_congruence(Tu, system.Kuu, Tu) / un.stress, f=None, jump=(jump @ Tu).tocsr())
-        if system.piezoelectric and system.Tp.shape[1]:       # every potential prescribed: no Gauss rows, the
-            Tp = system.Tp                                      # potential's lift is a load of f
-            blk.Kup = _congruence(Tu, system.Kup, Tp) / np.sqrt(un.stress * un.permittivity)
-            blk.Kpp = _congruence(Tp, system.Kpp, Tp) / un.permittivity
+        Tu, Tp, Kup, Kpp = system.Tu, system.Tp, None, None
+        if system.piezoelectric and Tp.shape[1]:              # every potential prescribed: no Gauss rows, the
+            Kup = _congruence(Tu, system.Kup, Tp) / np.sqrt(un.stress * un.permittivity)   # potential's lift is
+            Kpp = _congruence(Tp, system.Kpp, Tp) / un.permittivity                          # a load of f
+        blk = cls(Kuu=_congruence(Tu, system.Kuu, Tu) / un.stress, f=None, jump=(jump @ Tu).tocsr(), Kup=Kup, Kpp=Kpp)
         return blk.with_loads(system, un)
 
     def with_loads(self, system, un: Units) -> "Block":

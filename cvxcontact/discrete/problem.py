@@ -26,6 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SceneError
+from ..fem.assembly import frozen
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space
@@ -86,6 +87,10 @@ class DiscreteProblem:
     kernel: Kernel | None = field(default=None, repr=False)
     _fingerprints: tuple = field(default=(), repr=False)
     _shared: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self):
+        for R, _ in self.translations:          # canonical and read-only, as the blocks' and E's matrices (frozen)
+            frozen(R)
 
     # ---- what the backends read ---------------------------------------------------------------
     @property

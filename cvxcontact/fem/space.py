@@ -31,8 +31,8 @@ from ..contact.truegap import GapDeparture
 from ..errors import SceneError, SolverError, UnsupportedError
 from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
-from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, strain_at, \
-    strain_points
+from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, frozen, gradients, \
+    strain_at, strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
 from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights
 from .q2faces import q2_pair, quadratic_pressures
@@ -91,6 +91,9 @@ class ContactLines:
     independent: bool = False
     node_cone: tuple | None = None
     element: ConditionRows | None = None
+
+    def __post_init__(self):
+        frozen(self.E)                          # canonical and read-only: a solve cannot reorder the rows' entries
 
     @property
     def cone_on_nodes(self) -> tuple | None:

@@ -1,0 +1,124 @@
+"""A solve reads its DiscreteProblem, never changes it: every array reachable from the problem holds the same bits
+after one solve and after a second, and two cold solves of one problem give the same bits.
+
+Found: the read-back's ``abs(block.jump)`` sorted a non-canonical jump operator in place during the first solve
+(SciPy's ``sum_duplicates``), so a second solve read the same matrix with its entries in another order. The
+problem's sparse matrices are now canonical and read-only from construction (:func:`cvxcontact.fem.assembly.frozen`).
+"""
+
+import hashlib
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import cvxcontact as cc
+from cvxcontact.fem.assembly import frozen
+from scenes import SCENES, two_blocks
+from scenes3d import two_boxes
+
+CASES = {
+    "3D two boxes, gamma3 (a jump sorted in place before)": (lambda: two_boxes(4, "gamma3", True), {}),
+    "2D two blocks, sigma1, sparse route": (lambda: two_blocks((8, 4), (5, 3)), dict(condition="sigma1",
+                                                                                      method="sparse")),
+    "2D P2 cones": SCENES["two blocks, P2 gamma3 (cones)"],
+    "2D force-controlled circle": SCENES["force-controlled circle"],
+    "2D P2 conic limit (two cold solves differed before)": SCENES["layer held, P2 conic limit"],
+}
+CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
+
+
+def arrays(obj, path="problem", seen=None, out=None) -> dict:
+    """Every numpy array reachable from ``obj`` through the package's objects, containers and sparse matrices,
+    by path (the caches of :data:`CACHES` left out)."""
+    seen = set() if seen is None else seen
+    out = {} if out is None else out
+    if id(obj) in seen or obj is None or isinstance(obj, (str, bytes, int, float, complex)):
+        return out
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        if obj.dtype != object:
+            out[path] = obj
+        else:
+            for i, x in enumerate(obj.ravel()):
+                arrays(x, f"{path}[{i}]", seen, out)
+    elif sp.issparse(obj):
+        out.update({f"{path}.{a}": getattr(obj, a) for a in ("data", "indices", "indptr", "row", "col", "offsets")
+                    if isinstance(getattr(obj, a, None), np.ndarray)})
+    elif isinstance(obj, (list, tuple)):
+        for i, x in enumerate(obj):
+            arrays(x, f"{path}[{i}]", seen, out)
+    elif isinstance(obj, dict):
+        for k, x in obj.items():
+            arrays(x, f"{path}[{k!r}]", seen, out)
+    elif type(obj).__module__.startswith("cvxcontact"):
+        names = list(getattr(obj, "__dict__", {}))
+        names += [n for c in type(obj).__mro__ for n in getattr(c, "__slots__", ())]
+        for n in dict.fromkeys(names):
+            if n not in CACHES and hasattr(obj, n):
+                arrays(getattr(obj, n), f"{path}.{n}", seen, out)
+    return out
+
+
+def digests(obj) -> dict:
+    """path -> a digest of the array's dtype, shape and bytes."""
+    return {k: hashlib.sha256(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).tobytes()).hexdigest()
+            for k, a in arrays(obj).items()}
+
+
+def changed(before: dict, after: dict) -> list:
+    """The arrays of ``before`` that ``after`` holds with other bits (a cache filled on first use is no change)."""
+    return sorted(k for k in before if after.get(k) != before[k])
+
+
+@pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
+def solved(request):
+    """(problem, its digests before, after a first and after a second cold solve, the two answers)."""
+    build, kw = CASES[request.param]
+    solver = cc.ContactSolver(build(), warm_start=False, **kw)
+    p = solver.problem
+    d0 = digests(p)
+    first = solver.solve()
+    d1 = digests(p)
+    second = solver.solve()
+    return p, d0, d1, digests(p), first, second
+
+
+def test_a_solve_changes_no_array_of_its_problem(solved):
+    _, d0, d1, d2, _, _ = solved
+    assert len(d0) > 50                              # the walk reaches the blocks, E, the gap, the rows... (78-184)
+    assert any(".blocks[0].jump." in k for k in d0) and any(".lines.E." in k for k in d0)
+    assert changed(d0, d1) == [], "the first solve changed these arrays of its problem"
+    assert changed(d1, d2) == [], "the second solve changed these arrays of its problem"
+
+
+def test_two_cold_solves_give_the_same_bits(solved):
+    *_, first, second = solved
+    one, two = digests(first), digests(second)
+    assert len(one) > 10 and one.keys() == two.keys()
+    for a, b in zip(first.u, second.u):
+        assert np.array_equal(a, b)
+    assert changed(one, two) == []
+
+
+def test_the_problems_matrices_are_canonical_and_read_only(solved):
+    p = solved[0]
+    matrices = [m for b in p.blocks for m in (b.Kuu, b.jump, b.Kup, b.Kpp) if m is not None]
+    matrices += [p.E] + [R for R, _ in p.translations]
+    for m in matrices:
+        rows = np.repeat(np.arange(len(m.indptr) - 1), np.diff(m.indptr))       # sorted, no duplicates, by hand
+        assert np.all((np.diff(m.indices) > 0) | (np.diff(rows) > 0))
+        for a in (m.data, m.indices, m.indptr):
+            with pytest.raises(ValueError):
+                a[:1] = a[:1]                        # an in-place change raises at once
+
+
+def test_frozen_sums_duplicates_sorts_keeps_zeros_and_leaves_other_formats():
+    A = sp.csr_matrix((np.array([1.0, 0.0, 2.0, 3.0]), np.array([2, 0, 2, 1]), np.array([0, 4, 4])), shape=(2, 3))
+    dense = A.toarray()                              # [[0, 3, 3], [0, 0, 0]]: the two (0, 2) entries summed
+    B = frozen(A)
+    assert B is A and np.array_equal(B.toarray(), dense)
+    assert B.indices.tolist() == [0, 1, 2] and B.data.tolist() == [0.0, 3.0, 3.0]   # the stored zero kept
+    assert not B.data.flags.writeable and not B.indices.flags.writeable and not B.indptr.flags.writeable
+    C = sp.coo_matrix(dense)
+    assert frozen(C) is C and C.data.flags.writeable and frozen(None) is None

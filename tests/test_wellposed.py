@@ -402,3 +402,35 @@ def test_the_one_program_proof_of_no_free_direction_agrees_with_the_programs_of_
         none += found is None and not near
         proved += ok and not near
     assert closed >= 5 and none >= 8 and proved == none         # measured: 10 closed within the slack; 11, 11
+
+
+def test_the_one_program_proof_holds_only_below_a_quarter_on_cones_of_known_maximum():
+    """kernel._bounded_below_half claims: True only if no alpha (A alpha <= b, b >= 0, |alpha|_inf <= 1) has a
+    coordinate above 1/4 in either sign. On {-lo <= Q alpha <= hi} (Q orthogonal, rows scaled; lo, hi > 0 drawn
+    apart, so the two signs differ) the largest +-alpha_j is, in closed form where it is <= 1, the max over j of
+    sum_i max(+-Q_ij hi_i, -+Q_ij lo_i) (v in [-lo, hi] reaches it through alpha = Q^T v, no v exceeds it); the
+    cones are scaled to maxima 0.02 .. 0.9. So the claim is checked against no solver: never True at a maximum
+    >= 1/4, and kernel._free_direction (with the proof) names a direction exactly where it reaches 1/2. The
+    one-coordinate cones have a bound equal to their maximum: a proof accepted above 1/4 (or up to 1/2: a
+    changed decision), or one that bounds one sign only, fails here."""
+    from cvxcontact.fem import kernel
+
+    rng = np.random.default_rng(20261207)
+    proved = below_half = above_half = one_sign = 0
+    for trial, target in enumerate(rng.permutation(np.geomspace(0.02, 0.9, 48))):
+        m = 1 + trial % 6
+        Q = np.linalg.qr(rng.standard_normal((m, m)))[0]
+        hi, lo = 10.0 ** rng.uniform(-2, 0, (2, m))
+        ends = [np.maximum(sign * Q * hi[:, None], -sign * Q * lo[:, None]).sum(axis=0).max() for sign in (1, -1)]
+        hi, lo, ends = hi * target / max(ends), lo * target / max(ends), np.array(ends) * target / max(ends)
+        A, b = np.vstack([Q, -Q]), np.concatenate([hi, lo])
+        scale = np.abs(A).max(axis=1)
+        A, b = A / scale[:, None], b / scale
+        ok = kernel._bounded_below_half(A, b, range(m), m)
+        assert not (ok and target >= 0.25), (trial, target)
+        assert (kernel._free_direction(A, b, range(m), m) is not None) == (target >= 0.5), (trial, target)
+        proved += ok
+        below_half += 0.25 <= target < 0.5
+        above_half += target >= 0.5
+        one_sign += ends.min() < 0.25 <= target
+    assert proved >= 8 and below_half >= 3 and above_half >= 3 and one_sign >= 2     # measured: 27, 8, 8, 8

@@ -14,6 +14,7 @@ import scipy.sparse as sp
 
 import cvxcontact as cc
 from cvxcontact.fem.assembly import frozen
+from friction_scenes import pair2d
 from scenes import SCENES, two_blocks
 from scenes3d import two_boxes
 
@@ -24,6 +25,7 @@ CASES = {
     "2D P2 cones": SCENES["two blocks, P2 gamma3 (cones)"],
     "2D force-controlled circle": SCENES["force-controlled circle"],
     "2D P2 conic limit (two cold solves differed before)": SCENES["layer held, P2 conic limit"],
+    "2D Coulomb pair (the slip's operators sorted in place before)": (lambda: pair2d(cc.Coulomb(0.3)), {}),
 }
 CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
 

@@ -15,6 +15,7 @@ import scipy.sparse as sp
 import cvxcontact as cc
 from cvxcontact.fem.assembly import frozen
 from friction_scenes import pair2d
+from hencky_scenes import indented
 from scenes import SCENES, two_blocks
 from scenes3d import two_boxes
 
@@ -26,6 +27,8 @@ CASES = {
     "2D force-controlled circle": SCENES["force-controlled circle"],
     "2D P2 conic limit (two cold solves differed before)": SCENES["layer held, P2 conic limit"],
     "2D Coulomb pair (the slip's operators sorted in place before)": (lambda: pair2d(cc.Coulomb(0.3)), {}),
+    "2D Hencky indented (its strain matrix A sorted in place before)": (
+        lambda: indented(cc.materials.hencky(70e9, 0.3, 1e8, 0.1), nx=8, ny=3), {}),
 }
 CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
 

@@ -14,6 +14,8 @@ import scipy.sparse as sp
 
 import cvxcontact as cc
 from cvxcontact.fem.assembly import frozen
+from friction_scenes import pair2d
+from hencky_scenes import indented
 from scenes import SCENES, two_blocks
 from scenes3d import two_boxes
 
@@ -24,6 +26,9 @@ CASES = {
     "2D P2 cones": SCENES["two blocks, P2 gamma3 (cones)"],
     "2D force-controlled circle": SCENES["force-controlled circle"],
     "2D P2 conic limit (two cold solves differed before)": SCENES["layer held, P2 conic limit"],
+    "2D Coulomb pair (the slip's operators sorted in place before)": (lambda: pair2d(cc.Coulomb(0.3)), {}),
+    "2D Hencky indented (its strain matrix A sorted in place before)": (
+        lambda: indented(cc.materials.hencky(70e9, 0.3, 1e8, 0.1), nx=8, ny=3), {}),
 }
 CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
 
@@ -122,3 +127,18 @@ def test_frozen_sums_duplicates_sorts_keeps_zeros_and_leaves_other_formats():
     assert not B.data.flags.writeable and not B.indices.flags.writeable and not B.indptr.flags.writeable
     C = sp.coo_matrix(dense)
     assert frozen(C) is C and C.data.flags.writeable and frozen(None) is None
+
+
+def test_with_rows_leaves_the_callers_matrix_alone():
+    """with_rows freezes its own copy of E: the caller's matrix (unsorted, with duplicates) keeps its arrays' bits
+    and stays writeable (before, sp.csr_matrix(E) viewed the caller's arrays and frozen sorted and summed them)."""
+    p = cc.ContactSolver(two_blocks((8, 4), (5, 3)), condition="sigma1").problem
+    m, n = 4, p.lines.E.shape[1]
+    r = np.arange(m)[:, None]
+    cols = np.hstack([n - 1 - r, r, n - 1 - r])          # row r: columns n-1-r, r, n-1-r (unsorted, a duplicate)
+    E = sp.csr_matrix((np.arange(1.0, 3 * m + 1), cols.ravel(), np.arange(0, 3 * m + 1, 3)), shape=(m, n))
+    dense, mine = E.toarray(), [a.copy() for a in (E.data, E.indices, E.indptr)]
+    q = p.with_rows(E)
+    assert np.array_equal(q.lines.E.toarray(), dense) and q.lines.E.nnz == 2 * m     # its own E: summed, sorted
+    assert all(np.array_equal(a, b) for a, b in zip((E.data, E.indices, E.indptr), mine))
+    assert E.data.flags.writeable and E.indices.flags.writeable

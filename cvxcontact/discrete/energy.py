@@ -26,6 +26,8 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
+from ..fem.assembly import frozen
+
 __all__ = ["BulkEnergy", "Quadratic", "StrainEnergy", "abs_product", "bulk_energy"]
 
 ROWS = 1 << 16
@@ -147,7 +149,8 @@ class StrainEnergy:
         S = system.strain
         self._stiffness = stiffness                                  # the scaled T_u^T Kuu T_u, if assembled
         self.material, self.load = system.material, un.load
-        self.A = (S @ system.Tu).tocsr() * un.length                 # eps / s = A z + e0 (dimensionless)
+        # eps / s = A z + e0 (dimensionless); canonical and read-only (frozen): abs(A) sorted it in place in a solve
+        self.A = frozen((S @ system.Tu).tocsr() * un.length)
         self.e0 = S @ system.u_fixed / un.load
         self.w = system.weights / (un.stress * un.length ** 2)       # sum w W(eps) / (c0 L0^2 s^2) = sum w' W / s^2
         self.d = system.Tu.T @ (system.Kuu @ system.u_fixed) / un.force

@@ -267,7 +267,7 @@ class DiscreteProblem:
 
         from ..contact.laws import RowLaws, Signorini
 
-        E = sp.csr_matrix(E)
+        E = sp.csr_matrix(E, copy=True)     # the caller's own: the rows' E is made canonical in place (frozen)
         rows = RowLaws.uniform(Signorini(), E.shape[0]) if rows is None else rows
         if E.shape[1] != self.lines.E.shape[1] or rows.size != E.shape[0]:
             raise SceneError(f"with_rows: E must have {self.lines.E.shape[1]} columns (the nodes of X_h) and one "

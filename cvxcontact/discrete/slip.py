@@ -21,6 +21,7 @@ import scipy.sparse as sp
 
 from ..contact.bernstein import positive_force
 from ..errors import SolverError, UnsupportedError
+from ..fem.assembly import frozen
 from .blocks import Units
 
 __all__ = ["Slip", "friction_weights", "obstacle_slip", "row_weights", "slip_rows"]
@@ -49,6 +50,10 @@ class Slip:
     prescribed: np.ndarray | float
     translations: tuple
     weights: np.ndarray
+
+    def __post_init__(self):
+        for T in self.operators:                # canonical and read-only, as the blocks' jumps: the read-back's
+            frozen(T)                           # abs(T) (solution/friction.py) sorted them in place
 
     @classmethod
     def build(cls, scene, condition: str, lines, systems, units: Units) -> Slip:

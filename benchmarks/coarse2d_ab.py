@@ -11,9 +11,13 @@ import statistics
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import scipy.sparse as sp
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import coarse_rows_by_c4
 
 import cvxcontact as cc
 from cvxcontact.apps import demo
@@ -22,32 +26,17 @@ from cvxcontact.backends import coarse
 warnings.simplefilter("ignore")
 n, pairs = int(sys.argv[1]), int(sys.argv[2])
 
-
-def main_rows(C, free):
-    """coarse_rows as on main (25d0d37): the balls from the pattern of C^4 formed by three products."""
-    P = C
-    for _ in range(coarse.COARSE_HOPS - 1):
-        P = P @ C
-    P = P.tocsr()
-    keep, blocked = np.zeros(C.shape[0], dtype=bool), ~np.asarray(free, dtype=bool)
-    for a in range(C.shape[0]):
-        if not blocked[a]:
-            keep[a] = True
-            blocked[P.indices[P.indptr[a]:P.indptr[a + 1]]] = True
-    return np.flatnonzero(keep)
-
-
 p = cc.ContactSolver(demo.thin_layer(n)).problem
 C = coarse.row_graph(sp.hstack([p.E @ b.jump for b in p.blocks]).tocsr())
 free = np.ones(C.shape[0], dtype=bool)
 t = {"main": [], "this": []}
 for r in range(pairs):
     for side in (("main", "this") if r % 2 == 0 else ("this", "main")):
-        rows = main_rows if side == "main" else coarse.coarse_rows
+        rows = coarse_rows_by_c4 if side == "main" else coarse.coarse_rows
         t0 = time.process_time()
         rows(C, free)
         t[side].append(time.process_time() - t0)
-assert np.array_equal(main_rows(C, free), coarse.coarse_rows(C, free))
+assert np.array_equal(coarse_rows_by_c4(C, free), coarse.coarse_rows(C, free))
 print(f"thin_layer({n}), {C.shape[0]} rows: coarse_rows median ms",
       {k: round(1e3 * statistics.median(v), 2) for k, v in t.items()},
       "least", {k: round(1e3 * min(v), 2) for k, v in t.items()}, "; the same rows: True")

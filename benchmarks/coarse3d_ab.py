@@ -18,7 +18,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 import scenes3d
+from harness import coarse_rows_by_c4
 
 import cvxcontact as cc
 from cvxcontact.backends import coarse, sparse
@@ -28,21 +30,6 @@ warnings.simplefilter("ignore")
 n, reps = int(sys.argv[1]), int(sys.argv[2])
 shipped = coarse.coarse_rows
 
-
-def main_rows(C, free):
-    """coarse_rows as on main: the balls from the pattern of C^4 formed by three products."""
-    P = C
-    for _ in range(coarse.COARSE_HOPS - 1):
-        P = P @ C
-    P = P.tocsr()
-    keep, blocked = np.zeros(C.shape[0], dtype=bool), ~np.asarray(free, dtype=bool)
-    for a in range(C.shape[0]):
-        if not blocked[a]:
-            keep[a] = True
-            blocked[P.indices[P.indptr[a]:P.indptr[a + 1]]] = True
-    return np.flatnonzero(keep)
-
-
 p = cc.ContactSolver(scenes3d.offset_boxes(n)).problem
 blocks, E, g = list(p.blocks), p.E, np.asarray(p.g, dtype=float)
 F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
@@ -51,7 +38,7 @@ rows = {"main": [], "this": []}
 starts = {}
 for r in range(reps):
     for side in (("main", "this") if r % 2 == 0 else ("this", "main")):
-        sparse.coarse_rows = main_rows if side == "main" else shipped
+        sparse.coarse_rows = coarse_rows_by_c4 if side == "main" else shipped
         sc = sparse.SparseContact(blocks, E, factorization="auto")
         C = coarse.row_graph(sc.G)
         t0 = time.process_time()

@@ -262,6 +262,42 @@ def thin_layer_route(n: int):
     return blocks, E, g, F, bonded
 
 
+def coarse_rows_by_c4(C, free=None) -> np.ndarray:
+    """``backends.coarse.coarse_rows`` as it was before its density dispatch (25d0d37f): the balls of COARSE_HOPS
+    hops from the pattern of C^COARSE_HOPS formed by repeated products whatever the density, the greedy independent
+    set in row order (``free``: the rows that may be coarse, default all). The A/B scripts' baseline
+    (benchmarks/coarse2d_ab.py, coarse3d_ab.py, longif_coarse_rows.py)."""
+    from cvxcontact.backends import coarse
+
+    P = C
+    for _ in range(coarse.COARSE_HOPS - 1):
+        P = P @ C
+    P = P.tocsr()
+    free = np.ones(C.shape[0], dtype=bool) if free is None else np.asarray(free, dtype=bool)
+    keep, blocked = np.zeros(C.shape[0], dtype=bool), ~free
+    for a in range(C.shape[0]):
+        if not blocked[a]:
+            keep[a] = True
+            blocked[P.indices[P.indptr[a]:P.indptr[a + 1]]] = True
+    return np.flatnonzero(keep)
+
+
+def two_blocks_solver(nx: int):
+    """``demo.two_blocks(nx)`` prepared and solved once as the re-solve scripts time it (benchmarks/
+    resolve_closed_ab.py, resolve_batch_ab.py, resolve_profile.py): an untimed ``cc.solve(two_blocks(4))`` first
+    (imports, first-call set-up), then (scene, solver, first) with ``first`` the process CPU seconds of
+    ``cc.ContactSolver(scene).solve()``, from the Scene to the checked Solution."""
+    import cvxcontact as cc
+    from cvxcontact.apps import demo
+
+    cc.solve(demo.two_blocks(4))
+    scene = demo.two_blocks(nx)
+    c0 = time.process_time()
+    solver = cc.ContactSolver(scene)
+    solver.solve()
+    return scene, solver, time.process_time() - c0
+
+
 def residual(K, z, rhs) -> float:
     """||K z - rhs|| / ||rhs||."""
     return float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))

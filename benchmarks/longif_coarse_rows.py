@@ -19,7 +19,9 @@ import numpy as np
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 import scenes3d
+from harness import coarse_rows_by_c4
 
 import cvxcontact as cc
 from cvxcontact.apps import demo
@@ -35,20 +37,6 @@ def best(f, *args, reps=5):
         out = f(*args)
         times.append(time.process_time() - t0)
     return 1e3 * min(times), out
-
-
-def main_way(C):
-    """coarse_rows as on main before this change: C^4 by three products, whatever the density."""
-    P = C
-    for _ in range(coarse.COARSE_HOPS - 1):
-        P = P @ C
-    P = P.tocsr()
-    keep, blocked = np.zeros(C.shape[0], dtype=bool), np.zeros(C.shape[0], dtype=bool)
-    for a in range(C.shape[0]):
-        if not blocked[a]:
-            keep[a] = True
-            blocked[P.indices[P.indptr[a]:P.indptr[a + 1]]] = True
-    return np.flatnonzero(keep)
 
 
 def forced(C, work):
@@ -71,7 +59,7 @@ for name, make in [("thin_layer(1000)", lambda: demo.thin_layer(1000)),
     tp, rp = best(forced, C, np.inf)
     ts, rs = best(forced, C, 0.0)
     tc, rc = best(coarse.coarse_rows, C, np.ones(m, dtype=bool))
-    tm, rm = best(main_way, C)
+    tm, rm = best(coarse_rows_by_c4, C)
     assert np.array_equal(rp, rs) and np.array_equal(rp, rc) and np.array_equal(rp, rm)
     b4 = coarse._power(C2, 2).nnz / m
     print(f"{name}: rows {m}, b1 {C.nnz / m:.1f}, b2 {b2:.1f}, b4 {b4:.1f}, b2^2 {b2 * b2:.0f} "

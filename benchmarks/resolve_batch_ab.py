@@ -22,11 +22,12 @@ import statistics
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
-import cvxcontact as cc
-from cvxcontact.apps import demo
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import two_blocks_solver
 
 
 def rel(p, q):
@@ -37,12 +38,7 @@ def rel(p, q):
 def main():
     warnings.simplefilter("ignore")
     nx, rounds, cases = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
-    cc.solve(demo.two_blocks(4))
-    scene = demo.two_blocks(nx)
-    c0 = time.process_time()
-    solver = cc.ContactSolver(scene)
-    solver.solve()
-    first = time.process_time() - c0
+    scene, solver, first = two_blocks_solver(nx)
     count = iter(range(10 ** 6))
 
     def load_cases():

@@ -17,11 +17,13 @@ import statistics
 import sys
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
-import cvxcontact as cc
-from cvxcontact.apps import demo
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import two_blocks_solver
+
 from cvxcontact.backends import interface as im
 from cvxcontact.backends.finish.lcp import closed_solve
 
@@ -46,12 +48,7 @@ def main():
     warnings.simplefilter("ignore")
     nx, reps = int(sys.argv[1]), int(sys.argv[2])
     after = im.Condensation.invert_closed
-    cc.solve(demo.two_blocks(4))
-    scene = demo.two_blocks(nx)
-    c0 = time.process_time()
-    solver = cc.ContactSolver(scene)
-    solver.solve()
-    first = time.process_time() - c0
+    scene, solver, first = two_blocks_solver(nx)
     t, last = {"before": [], "after": []}, {}
     for r in range(reps):
         s = 0.37

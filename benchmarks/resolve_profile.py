@@ -19,9 +19,10 @@ import pstats
 import sys
 import time
 import warnings
+from pathlib import Path
 
-import cvxcontact as cc
-from cvxcontact.apps import demo
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import two_blocks_solver
 
 STAGES = [("new Scene", "physics/scene.py", "with_loads"), ("problem's loads", "discrete/problem.py", "with_loads"),
           ("forward sweeps", "backends/interface.py", "apply"),
@@ -37,12 +38,7 @@ STAGES = [("new Scene", "physics/scene.py", "with_loads"), ("problem's loads", "
 def main():
     warnings.simplefilter("ignore")
     nx, cases = int(sys.argv[1]), int(sys.argv[2])
-    cc.solve(demo.two_blocks(4))
-    scene = demo.two_blocks(nx)
-    c0 = time.process_time()
-    solver = cc.ContactSolver(scene)
-    solver.solve()
-    first = time.process_time() - c0
+    scene, solver, first = two_blocks_solver(nx)
 
     def case(r, s=0.37):
         return scene.with_loads(0, body_force=(0.0, -2e9 * s), traction={"right": (0.0, 3e8 * s * (1 + r / 100))},

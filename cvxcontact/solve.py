@@ -267,10 +267,7 @@ class ContactSolver:
         condensation.defer()
         try:
             for problem in problems:
-                timings, self._setup = dict(self._setup), {}
-                timings["loads"] = loads
-                self.problem = problem
-                runs.append((problem, run(self.method, problem, self._cache, self.settings, timings), timings))
+                runs.append((problem, *self._run(problem, loads)))
         finally:
             spent = condensation.flush()
         runs[0][2]["batched_backward"] = spent
@@ -288,10 +285,15 @@ class ContactSolver:
     def _solve(self, problem, loads: float) -> Solution:
         """Solve the load case ``problem`` (:meth:`DiscreteProblem.with_loads` of the prepared one, which took
         ``loads`` seconds)."""
+        return self._read(problem, *self._run(problem, loads))
+
+    def _run(self, problem, loads: float):
+        """The route's answer on the load case ``problem`` (made the solver's problem) and its stage timings, the
+        set-up's since the last solve and ``loads`` seconds of deriving it included."""
         timings, self._setup = dict(self._setup), {}
         self.problem = problem
         timings["loads"] = loads
-        return self._read(problem, run(self.method, problem, self._cache, self.settings, timings), timings)
+        return run(self.method, problem, self._cache, self.settings, timings), timings
 
     def _read(self, problem, raw, timings) -> Solution:
         """The checked, estimated :class:`Solution` of the route's answer ``raw`` on ``problem``."""

@@ -83,14 +83,19 @@ class Condensation:
         case that leaves this body's scaled loads as they were: the sweep would give the same numbers), else the
         one :meth:`prepare` batched for a load bit for bit F, else a new sweep (kept with a copy of F: 8 bytes per
         unknown of the body)."""
-        last = self._loaded[k]
-        if last is not None and np.array_equal(last[0], F):
-            return last[1]
+        sweep = self._last(k, F)
+        if sweep is not None:
+            return sweep
         sweep = next((s for G, s in self._batched[k] if np.array_equal(G, F)), None)
         if sweep is None:
             sweep = self.bodies[k].forward(F)
         self._loaded[k] = (np.array(F, dtype=float), sweep)
         return sweep
+
+    def _last(self, k, F):
+        """Body k's forward sweep of the last load case if its scaled load was bit for bit F, else None."""
+        last = self._loaded[k]
+        return last[1] if last is not None and np.array_equal(last[0], F) else None
 
     def prepare(self, problems) -> None:
         """Batch the forward sweeps of the load cases ``problems`` (problems of this geometry and contact rows):
@@ -108,9 +113,7 @@ class Condensation:
             loads: list = []
             for p in problems:
                 F = np.asarray(quasi_definite_rhs(p.blocks[k]), dtype=float)
-                last = self._loaded[k]
-                if not (last is not None and np.array_equal(last[0], F)) and not any(
-                        np.array_equal(G, F) for G in loads):
+                if self._last(k, F) is None and not any(np.array_equal(G, F) for G in loads):
                     loads.append(F)
             if len(loads) < 2:                    # one load: the single sweep, as solve() makes it
                 continue

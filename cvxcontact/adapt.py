@@ -50,7 +50,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .errors import ResidualWarning, ResolutionWarning, SceneError, UnsupportedError
+from .errors import (
+    ResidualWarning,
+    ResolutionWarning,
+    SceneError,
+    UnsupportedError,
+    user_stacklevel,
+)
 from .fem.space import needs_matching_faces, space
 from .geometry.refine import Curve, local_refusal, refine_together, start_local
 from .goal import force_estimate
@@ -380,7 +386,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
             if stopped == "tol" and relative > tol:
                 warnings.warn(f"adapt: the interior point's relative estimate reached tol = {tol:g} on the last mesh "
                               f"({row.unknowns} unknowns), its exact answer's reads {relative:.3g}: call again with "
-                              "exact_steps=True or a slightly smaller tol", ResolutionWarning, stacklevel=2)
+                              "exact_steps=True or a slightly smaller tol", ResolutionWarning, stacklevel=user_stacklevel())
             if tol is not None and stopped != "tol":
                 best = min(history, key=lambda r: r.relative)
                 warnings.warn(f"adapt: the relative estimate {row.relative:.3g} of the last mesh ({row.unknowns} "
@@ -388,7 +394,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
                               f"{best.relative:.3g} at step {best.step} ({best.unknowns} unknowns). The answer "
                               f"returned is the last mesh's; to reach tol raise {stopped} (the estimate falls "
                               "about as N^(-p/2) in the unknowns N, P1 p = 1, P2 p = 2, in 2D) or ask a larger tol",
-                              ResolutionWarning, stacklevel=2)
+                              ResolutionWarning, stacklevel=user_stacklevel())
             return Adapted(solution=sol, scene=scene, history=tuple(history), stopped=stopped, solutions=tuple(kept))
         scene, step = refined, step + 1
 

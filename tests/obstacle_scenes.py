@@ -1,10 +1,11 @@
 """Scenes of one block under a rigid obstacle, shared by tests/test_force_control.py (where the force-controlled
 obstacles are checked against the displacement-controlled ones and closed forms), tests/test_tangency.py,
 tests/test_truegap_argmax.py, tests/test_adapt.py, tests/test_adapt_budget.py, tests/test_model_stack.py,
-tests/test_mixed_cuts_factored.py and the canonical set of tests/scenes.py: a rigid flat punch on a block's
-footprint, a rigid circle indenter (displacement or force controlled), the circle of the tangency tests and the
-indented block of the adapt tests (docs/formulation.md §12, §18). A fixtures module: the test modules do not import
-each other.
+tests/test_mixed_cuts_factored.py, tests/test_wellposed.py, tests/test_warning_location.py and the canonical set of
+tests/scenes.py: a rigid flat punch on a block's footprint, a rigid circle indenter (displacement or force
+controlled), the circle of the tangency tests, the indented block of the adapt tests and a force-controlled circle
+on a block's symmetry line (the half model) (docs/formulation.md §12, §18). A fixtures module: the test modules do
+not import each other.
 """
 
 import cvxcontact as cc
@@ -43,3 +44,10 @@ def indented_block(nx=8, ny=2):
                     clamped="bottom", contact="top", name="block")
     return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((0.47, 0.5 + 0.6 - 3e-3), 0.6))])
 
+
+def half_model(degree_nx=16, force=(0.0, -1e7), center_x=0.0, roller="left"):
+    """A block clamped at its bottom under a force-controlled circle, a symmetry roller on x = 0 (the half
+    model: the circle straddles the symmetry line); ``center_x=0.5`` and no roller: the whole model."""
+    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=degree_nx, ny=4), ALU, clamped="bottom", roller=roller,
+                    contact="top", name="block")
+    return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((center_x, 1.1), 0.6, force=force))])

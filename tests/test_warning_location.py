@@ -1,13 +1,21 @@
 """The warnings of a solve name the caller's line (file and line number), whichever entry point it called:
-cvxcontact.solve, ContactSolver.solve, ContactSolver.solve_many (its first load case alone, then batched): each
-reaches the warning through a different depth of the package's calls (cvxcontact.errors.user_stacklevel)."""
+cvxcontact.solve, ContactSolver.solve, ContactSolver.solve_many (its first load case alone, then batched),
+Model.solve (without user terms, with a user row, with a user row beside a friction term) and cc.adapt (its own
+warnings and those of its solves): each reaches the warning through a different depth of the package's calls
+(cvxcontact.errors.user_stacklevel). Before, FixedPointWarning and NonUniqueWarning named a line of
+cvxcontact/solve.py or cvxcontact/model/__init__.py from every entry point."""
 
 import sys
 import warnings
 
+import pytest
 from conftest import two_blocks
+from friction_scenes import P, sheared
+from obstacle_scenes import half_model
 
 import cvxcontact as cc
+from cvxcontact.backends import condensed
+from cvxcontact.errors import SolverError
 
 
 def _here():
@@ -37,3 +45,82 @@ def test_warnings_name_the_line_that_called_the_solve():
         caught.clear()
         _, line = strict.solve_many([_coarse(1), _coarse(2)]), _here()
         assert _where(caught, cc.ResidualWarning) == {(__file__, line)}
+
+
+# ------------------------------------------------------------------ every warning class from every entry point
+
+def _with_row(model):
+    """``model`` with a user row that never binds (its solve takes the user terms' route)."""
+    model.add(model.u(0)[:, 1] >= -1.0)
+    return model
+
+
+# name -> a call of one entry point on a scene builder and keywords, written on ONE line: the warnings must name it
+ENTRIES = {
+    "cc.solve": lambda scene, kw: cc.solve(scene(), **kw),
+    "ContactSolver.solve": lambda scene, kw: cc.ContactSolver(scene(), **kw).solve(),
+    "ContactSolver.solve_many": lambda scene, kw: cc.ContactSolver(scene(), **kw).solve_many([scene(), scene()]),
+    "Model.solve": lambda scene, kw: cc.Model(scene(), **kw).solve(),
+    "Model.solve, a user row": lambda scene, kw: _with_row(cc.Model(scene(), **kw)).solve(),
+    "cc.adapt": lambda scene, kw: cc.adapt(scene(), max_steps=0, **kw),
+}
+SOLVERS = ["cc.solve", "ContactSolver.solve", "ContactSolver.solve_many"]
+
+
+def _unsettled():
+    """Coulomb's fixed point stopped after one iterate, unfinished: a FixedPointWarning and a ResidualWarning
+    (measured; tests/test_coulomb.py on the same block at 8 x 4)."""
+    return sheared(0.35 * P, cc.Coulomb(0.4, max_iterations=1), nx=4, ny=2)
+
+
+def _one_node():
+    """A force-controlled circle touching one node of the block under it: its sideways translation is not
+    determined, a NonUniqueWarning (tests/test_wellposed.py)."""
+    return half_model(force=(0.0, -1e7), center_x=0.5, roller=())
+
+
+# name -> (scene builder, keywords, the warning classes raised, the entry points that raise them)
+CASES = {
+    "unsettled fixed point": (_unsettled, {"polish": False}, (cc.FixedPointWarning, cc.ResidualWarning),
+                              list(ENTRIES)),
+    "unsettled fixed point, P2 cones": (_unsettled, {"polish": False, "degree": 2}, (cc.FixedPointWarning,),
+                                        ["cc.solve", "Model.solve", "Model.solve, a user row"]),
+    "obstacle on one node": (_one_node, {"condition": "sigma1"}, (cc.NonUniqueWarning,),
+                             [*SOLVERS, "Model.solve", "cc.adapt"]),
+    "checks failed": (_coarse, {"tol": 1e-17}, (cc.ResidualWarning,), [*SOLVERS, "Model.solve",
+                                                                        "Model.solve, a user row"]),
+    "coarse contact zone": (_coarse, {}, (cc.ResolutionWarning,), [*SOLVERS, "cc.adapt"]),
+    "adapt above its tol": (_coarse, {"tol": 1e-9}, (cc.ResolutionWarning,), ["cc.adapt"]),
+}
+
+
+@pytest.mark.parametrize("case,entry", [(c, e) for c, (*_, entries) in CASES.items() for e in entries])
+def test_every_warning_names_the_calling_line_from_every_entry_point(case, entry):
+    scene, kw, categories, _ = CASES[case]
+    call = ENTRIES[entry]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        call(scene, kw)
+    line = call.__code__.co_firstlineno                     # the one line of the entry point's call
+    for category in categories:
+        assert _where(caught, category) == {(__file__, line)}, category.__name__
+
+
+@pytest.mark.parametrize("entry", [*SOLVERS, "cc.adapt"])
+def test_the_pardiso_fallback_names_the_calling_line(entry, monkeypatch):
+    """PARDISO refusing a body's matrix (made to refuse here: it accepts these) falls back to SuperLU with a
+    warning naming the caller's line."""
+    real = condensed.factorize
+
+    def refusing(S, gamma, kind, **kw):
+        if kind == "pardiso":
+            raise SolverError("refused (a test)")
+        return real(S, gamma, kind, **kw)
+
+    monkeypatch.setattr(condensed, "factorize", refusing)
+    call = ENTRIES[entry]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        call(_coarse, {"method": "condensed", "factorization": "auto"})
+    fallback = {(w.filename, w.lineno) for w in caught if "PARDISO refused" in str(w.message)}
+    assert fallback == {(__file__, call.__code__.co_firstlineno)}

@@ -18,6 +18,7 @@ import pytest
 import cvxcontact as cc
 from cvxcontact.fem.assembly import assemble_loads, assemble_matrices
 from cvxcontact.fem.kernel import check_determined, check_well_posed, rigid_kernel, undetermined
+from obstacle_scenes import half_model
 
 pytestmark = pytest.mark.numerics      # re-run under every OpenBLAS kernel set by .ci/run
 
@@ -226,14 +227,6 @@ def test_body_contact_tag_does_not_drive_the_check():
 
 
 # ------------------------------------------------------------------ refusals
-
-def half_model(degree_nx=16, force=(0.0, -1e7), center_x=0.0, roller="left"):
-    """A block clamped at its bottom under a force-controlled circle, a symmetry roller on x = 0 (the half
-    model: the circle straddles the symmetry line); ``center_x=0.5`` and no roller: the whole model."""
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=degree_nx, ny=4), ALU, clamped="bottom", roller=roller,
-                    contact="top", name="block")
-    return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((center_x, 1.1), 0.6, force=force))])
-
 
 @pytest.mark.parametrize("degree,condition", [(1, "gamma3"), (1, "sigma1"), (2, "sigma1"), (2, "gamma3")])
 def test_half_model_circle_drifting_sideways_is_refused_naming_its_translation(degree, condition):

@@ -29,7 +29,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import SolverError
+from ..errors import SolverError, user_stacklevel
 from .factor import Factorization, Forward, factorize, resolve
 from .finish.lcp import LastFactor
 from .released import Released
@@ -164,7 +164,8 @@ def condense(block, system, mesh, factorization: str = "auto", threads: int | No
         except SolverError as exc:
             if factorization == "pardiso":
                 raise
-            warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU", stacklevel=2)
+            warnings.warn(f"PARDISO refused a body's matrix ({exc}); falling back to SuperLU",
+                          stacklevel=user_stacklevel())
     if factor is None:
         factor = factorize(S, gamma, "superlu", order=_superlu_order(S, gamma, n_u, system, mesh))
     if budget is not None and budget.release(factor.memory, possible=0 < len(gamma) < S.shape[0]):

@@ -53,7 +53,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.bernstein import element, point_rows
-from ..errors import FixedPointWarning
+from ..errors import FixedPointWarning, user_stacklevel
 from ..fem.kernel import refuse_sliding
 from .cones import MIXED_CUT_TOL
 from .cuts import accumulate_cuts, point_read_back
@@ -130,7 +130,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     if settings.polish:
         exact_finish(problem, raw, timings)
     if unsettled and not raw.polished:
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=user_stacklevel())
     return raw
 
 
@@ -178,7 +178,7 @@ def conic_full(problem, cache, settings, timings) -> RawResult:
     else:
         raw.declined = Declined(Stop.NOT_POSED, UNFINISHED_CONES)
     if unsettled and not raw.polished and raw.kept == INTERIOR_POINT_KEPT:     # not the cuts' answer: its own
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=3)              # fixed point converged
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=user_stacklevel())   # fixed point converged
     return raw
 
 

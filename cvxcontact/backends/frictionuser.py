@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import FixedPointWarning
+from ..errors import FixedPointWarning, user_stacklevel
 from .finish import Declined, Stop
 from .friction import (
     UNFINISHED_CONES,
@@ -84,7 +84,7 @@ def _finished(problem, raw, unsettled, objective, settings, admits, finish):
             out.declined = Declined(Stop.NOT_POSED, BINDS)
         raw = out
     if unsettled and not raw.polished and raw.kept == INTERIOR_POINT_KEPT:     # not the cuts' answer (its own
-        warnings.warn(unsettled, FixedPointWarning, stacklevel=5)              # fixed point converged)
+        warnings.warn(unsettled, FixedPointWarning, stacklevel=user_stacklevel())   # fixed point converged)
     return raw, tangential_force(problem, raw)
 
 

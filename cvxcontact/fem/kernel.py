@@ -490,7 +490,7 @@ def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
                          f"in an open gap): {_hint(here, [moving])}")
     import warnings
 
-    from ..errors import NonUniqueWarning
+    from ..errors import NonUniqueWarning, user_stacklevel
     dirs = verdict[1]
     obstacle = _owned(here, "obstacle")
     unseen = null_space(here.rows[:, obstacle].reshape(-1, int(obstacle.sum())), rcond=1e-9) if obstacle.any() \
@@ -505,7 +505,7 @@ def check_determined(kernel: Kernel | None, active: np.ndarray) -> None:
                   "it; the open contacts bound it): one solution is returned, the translation held at the interior "
                   "point's value; the displacements, potentials and contact forces are the same for all. Refine the "
                   "mesh under the obstacle or guide it (guided=) for a unique translation", NonUniqueWarning,
-                  stacklevel=4)
+                  stacklevel=user_stacklevel())
 
 
 def _free_body_motion(kernel) -> np.ndarray | None:

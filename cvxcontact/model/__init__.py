@@ -50,7 +50,7 @@ from ..backends.result import Cache, RawResult, Settings, declined_words
 from ..backends.run import run
 from ..contact.laws import ContactLaw, check_law, check_law_for
 from ..discrete import build_problem
-from ..errors import ResidualWarning, SceneError, UnsupportedError
+from ..errors import ResidualWarning, SceneError, UnsupportedError, user_stacklevel
 from ..fem.space import space
 from ..physics.scene import Body, Scene
 from ..solution.checks import force_displacements, ipm_active, reach_forces
@@ -422,7 +422,7 @@ class Model:
         stats = problem.solver_stats
         sol.info = replace(sol.info, method="full", requested="full", route=route, timings=timings,
                            iterations=int(stats.num_iters or 0) if stats is not None else 0)
-        self._warn(sol, finishable, raw, stacklevel=3)
+        self._warn(sol, finishable, raw)
         return sol
 
     def _admits(self, raw) -> bool:
@@ -462,18 +462,18 @@ class Model:
         sol.info = replace(sol.info, timings=timings)
         # a finish that applies and declined (a friction term's decline keeps its interior point's answer silently,
         # as cc.solve: ``finishes``), else the checks
-        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw, stacklevel=4)
+        self._warn(sol, self.problem.term.finish_declined(self.problem, raw, self.polish), raw)
         return sol
 
-    def _warn(self, sol, finishable: bool, raw: RawResult, stacklevel: int) -> None:
+    def _warn(self, sol, finishable: bool, raw: RawResult) -> None:
         """A ResidualWarning when an exact finish that applies was declined (why: ``raw.declined``, what is kept:
         ``raw.kept``), or when the checks fail."""
         if self.polish and finishable and not sol.polished:
             warnings.warn(f"{declined_words(f'the user model of {self.scene!r}', self.condition, raw)}:\n"
-                          f"{sol.report()}", ResidualWarning, stacklevel=stacklevel)
+                          f"{sol.report()}", ResidualWarning, stacklevel=user_stacklevel())
         elif not sol.ok:
             warnings.warn(f"the user model of {self.scene!r} ({self.condition}) fails its checks at "
-                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=stacklevel)
+                          f"tol={self.tol:g}:\n{sol.report()}", ResidualWarning, stacklevel=user_stacklevel())
 
     def _set_values(self, u, phi, taus, duals=()):
         """The model's variables (and the user constraints' duals) set to an answer, so that ``model.u(k).value``,
@@ -499,5 +499,5 @@ class Model:
         self._set_values(raw.u, raw.phi, raw.taus)
         # a finish that always runs (not term.finish_declined: cc.Model does not warn of the cones' declined cuts,
         # which cc.solve reports; tests/test_terms.py::test_model_warns_where_a_finish_that_always_runs_did_not)
-        self._warn(sol, self.problem.term.always_finished, raw, stacklevel=4)
+        self._warn(sol, self.problem.term.always_finished, raw)
         return sol

@@ -5,8 +5,10 @@ warnings and those of its solves): each reaches the warning through a different 
 (cvxcontact.errors.user_stacklevel). Before, FixedPointWarning and NonUniqueWarning named a line of
 cvxcontact/solve.py or cvxcontact/model/__init__.py from every entry point."""
 
+import ast
 import sys
 import warnings
+from pathlib import Path
 
 import pytest
 from conftest import two_blocks
@@ -124,3 +126,30 @@ def test_the_pardiso_fallback_names_the_calling_line(entry, monkeypatch):
         call(_coarse, {"method": "condensed", "factorization": "auto"})
     fallback = {(w.filename, w.lineno) for w in caught if "PARDISO refused" in str(w.message)}
     assert fallback == {(__file__, call.__code__.co_firstlineno)}
+
+
+def _fixed_levels(source):
+    """Line numbers of the ``warnings.warn`` calls in ``source`` whose ``stacklevel`` is not ``user_stacklevel()``
+    (a fixed level, or none: the package's own line)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "warn" \
+                and isinstance(node.func.value, ast.Name) and node.func.value.id == "warnings":
+            level = next((k.value for k in node.keywords if k.arg == "stacklevel"), None)
+            if not (isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
+                out.append(node.lineno)
+    return out
+
+
+def test_every_warning_of_the_package_takes_the_user_stacklevel():
+    """No ``warnings.warn`` in the package names a fixed frame: a fixed level names the user's line from one entry
+    point and a line of the package from another (the cases above)."""
+    root = Path(cc.__file__).parent
+    fixed = {str(p.relative_to(root)): lines for p in sorted(root.rglob("*.py"))
+             if (lines := _fixed_levels(p.read_text()))}
+    assert fixed == {}
+
+
+def test_the_stacklevel_check_sees_a_fixed_level():
+    assert _fixed_levels("import warnings\nwarnings.warn('x', UserWarning, stacklevel=2)\nwarnings.warn('y')\n"
+                         "warnings.warn('z', stacklevel=user_stacklevel())\n") == [2, 3]

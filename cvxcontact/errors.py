@@ -7,7 +7,10 @@ built-in exception a caller would naturally catch (``ValueError`` for bad data,
 
 Below the errors, the immutability of built descriptions: :class:`Frozen` (objects),
 :class:`FrozenTuple` and :class:`FrozenMap` (their containers), each refusing an edit with a
-:class:`FrozenError` that names what to build instead.
+:class:`FrozenError` that names what to build instead; and the package's read-only arrays, in one place, under
+three contracts: :func:`locked` (a dense copy whose values are read-only for good), :func:`frozen` (a sparse
+matrix made canonical, its values and pattern read-only, in place) and :func:`frozen_pattern` (a sparse matrix's
+pattern read-only in place, its values left writeable).
 """
 
 from __future__ import annotations
@@ -15,6 +18,11 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:                       # annotations only: ``cvxcontact --help`` must not load numpy (locked)
+    import numpy as np
+    import scipy.sparse as sp
 
 
 class CvxContactError(Exception):
@@ -123,16 +131,48 @@ class Frozen:
         self.__dict__.update({k: _relocked(v) for k, v in state.items()})
 
 
-def locked(a: np.ndarray) -> np.ndarray:
-    """A copy of ``a`` (C order, same shape and dtype) read-only for good: its memory is a ``bytes`` object, so no
-    ``setflags(write=True)`` (of it or of its ``base``) makes it writeable again, as it would an array that owns its
-    data. A description edited in place would leave what was computed from it once (a mesh's areas, a prepared
-    solver's loads) silently stale."""
+def locked(a: np.ndarray, dtype=None) -> np.ndarray:
+    """A copy of ``a`` (C order, same shape; ``dtype``: converted to it, None: ``a``'s) read-only for good: its
+    memory is a ``bytes`` object, so no ``setflags(write=True)`` (of it or of its ``base``) makes it writeable
+    again, as it would an array that owns its data. A description edited in place would leave what was computed
+    from it once (a mesh's areas, a prepared solver's loads) silently stale. The dense contract; the sparse ones:
+    :func:`frozen`, :func:`frozen_pattern`."""
     import numpy as np                  # here, not at the top: ``cvxcontact --help`` must not load numpy
 
     shape = np.shape(a)
-    a = np.ascontiguousarray(a)
+    a = np.ascontiguousarray(a, dtype=dtype)
     return np.frombuffer(a.tobytes(), dtype=a.dtype).reshape(shape)
+
+
+def frozen(A: sp.spmatrix | None) -> sp.spmatrix | None:
+    """``A`` in canonical form with read-only arrays (values and pattern): a compressed sparse matrix (CSR/CSC)
+    gets its indices sorted and its duplicates summed, in place, once (explicit zeros are kept), then its
+    ``data``, ``indices`` and ``indptr`` made read-only; a matrix without ``indptr`` (COO, DIA...), or None, is
+    returned as it is. Returns ``A``.
+
+    What a :class:`~cvxcontact.discrete.problem.DiscreteProblem` holds is only read by a solve, yet SciPy sorts a
+    non-canonical matrix in place on first use by some operations (``abs(A)``, ``A.sum_duplicates()``): the order
+    of its entries, and with it the rounding of sums over them, changed between a problem's first and its second
+    solve. In canonical form nothing is left to sort, and any in-place change raises at once (ValueError).
+    Unlike :func:`locked`, the arrays are ``A``'s own (no copy), and ``setflags(write=True)`` would unlock them."""
+    if getattr(A, "indptr", None) is None:
+        return A
+    if not A.has_canonical_format:
+        A.sum_duplicates()
+    for a in (A.data, A.indices, A.indptr):
+        a.flags.writeable = False
+    return A
+
+
+def frozen_pattern(A: sp.spmatrix) -> sp.spmatrix:
+    """``A`` (CSR/CSC) with its pattern read-only, in place: ``indices`` and ``indptr`` (not its values, nor put
+    in canonical form). For matrices that share one pattern across many values (a strain energy's Hessians, the
+    sparse route's K(A) for every active set): a caller's in-place change of the pattern (``eliminate_zeros``,
+    ``sort_indices`` of an unsorted one, ``indices[...] = ...``) raises (ValueError) instead of changing the
+    sparsity under the other matrices and the places kept for those arrays. Returns ``A``."""
+    A.indices.flags.writeable = False
+    A.indptr.flags.writeable = False
+    return A
 
 
 def _relocked(v):

@@ -3,7 +3,7 @@ after one solve and after a second, and two cold solves of one problem give the 
 
 Found: the read-back's ``abs(block.jump)`` sorted a non-canonical jump operator in place during the first solve
 (SciPy's ``sum_duplicates``), so a second solve read the same matrix with its entries in another order. The
-problem's sparse matrices are now canonical and read-only from construction (:func:`cvxcontact.fem.assembly.frozen`).
+problem's sparse matrices are now canonical and read-only from construction (:func:`cvxcontact.errors.frozen`).
 """
 
 import hashlib
@@ -13,7 +13,7 @@ import pytest
 import scipy.sparse as sp
 
 import cvxcontact as cc
-from cvxcontact.fem.assembly import frozen
+from cvxcontact.errors import frozen, frozen_pattern, locked
 from friction_scenes import pair2d
 from hencky_scenes import indented
 from scenes import SCENES, two_blocks
@@ -127,6 +127,34 @@ def test_frozen_sums_duplicates_sorts_keeps_zeros_and_leaves_other_formats():
     assert not B.data.flags.writeable and not B.indices.flags.writeable and not B.indptr.flags.writeable
     C = sp.coo_matrix(dense)
     assert frozen(C) is C and C.data.flags.writeable and frozen(None) is None
+
+
+def test_frozen_pattern_locks_the_pattern_in_place_and_leaves_the_values():
+    """The pattern-only contract (a strain energy's Hessians, which share H_0's pattern): indices and indptr
+    read-only, the values writeable, nothing sorted or summed."""
+    A = sp.csr_matrix((np.array([1.0, 2.0, 3.0]), np.array([2, 0, 2]), np.array([0, 3, 3])), shape=(2, 3))
+    assert frozen_pattern(A) is A and A.indices.tolist() == [2, 0, 2] and A.data.tolist() == [1.0, 2.0, 3.0]
+    for a in (A.indices, A.indptr):
+        with pytest.raises(ValueError):
+            a[:1] = a[:1]
+    A.data[0] = 5.0
+    assert A.toarray()[0].tolist() == [2.0, 0.0, 8.0]
+
+
+def test_locked_is_a_read_only_copy_for_good_in_the_dtype_asked():
+    """The dense contract: a copy (the caller's array untouched and still writeable), converted to ``dtype``, that
+    no ``setflags(write=True)`` makes writeable again (an array owning its memory could be)."""
+    mine = np.array([[1, 2], [3, 4]])
+    a, b = locked(mine, float), locked([1.5, 2.5])
+    assert a.dtype == np.float64 and a.shape == (2, 2) and a.tolist() == [[1.0, 2.0], [3.0, 4.0]]
+    assert b.dtype == np.float64 and locked(3, float).shape == () and locked(mine).dtype == mine.dtype
+    mine[0, 0] = 7
+    assert a[0, 0] == 1.0 and mine.flags.writeable
+    for x in (a, b):
+        with pytest.raises(ValueError):
+            x.setflags(write=True)
+        with pytest.raises(ValueError):
+            x[...] = 0
 
 
 def test_with_rows_leaves_the_callers_matrix_alone():

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.assembly import frozen
+from ..errors import frozen
 from .energy import BulkEnergy, Quadratic, abs_product, bulk_energy
 
 __all__ = ["Units", "Block", "units"]

@@ -26,7 +26,7 @@ from typing import Protocol
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.assembly import frozen
+from ..errors import frozen, frozen_pattern
 
 __all__ = ["BulkEnergy", "Quadratic", "StrainEnergy", "abs_product", "bulk_energy"]
 
@@ -278,14 +278,14 @@ class StrainEnergy:
             C0 = self.material.tangent(np.zeros((1, self.s)), self.dim)[0]
             H = self._assembled()
             if H is not None:
-                self._zero = (_frozen(H), C0)
+                self._zero = (frozen_pattern(H), C0)
                 return self._zero
             order = np.argsort(of, kind="stable")                                   # each group's points together
             local = np.einsum("qak,ab,qbl->qkl", B[order], C0, B[order], optimize=True) * self.w[order, None, None]
             local = _run_sums(local, of[order])
             H = self._shape.copy()
             H.data = np.bincount(place.ravel(), weights=local.ravel(), minlength=H.nnz + 1)[:H.nnz]
-            self._zero = (_frozen(H), C0)
+            self._zero = (frozen_pattern(H), C0)
         return self._zero
 
     def _assembled(self):
@@ -369,15 +369,6 @@ class StrainEnergy:
             norms = cp.norm(cp.reshape(dev @ eps, (q, P.shape[0]), order="C"), 2, axis=1)
             energy = energy + m.mu * (1.0 - m.h) * (self.w @ cp.huber(norms, s_y))
         return energy - self.d @ z
-
-
-def _frozen(H):
-    """``H`` with its index arrays read-only: every Hessian of :meth:`StrainEnergy.hessian` shares them, so a caller's
-    in-place change of one (``eliminate_zeros``, ``indices[...] = ...``) raises instead of changing H_0's sparsity
-    under the later Hessians and the tangent solver's places kept for those arrays."""
-    H.indices.flags.writeable = False
-    H.indptr.flags.writeable = False
-    return H
 
 
 def _run_starts(runs: np.ndarray) -> np.ndarray:

@@ -25,8 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SceneError
-from ..fem.assembly import frozen
+from ..errors import SceneError, frozen
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space

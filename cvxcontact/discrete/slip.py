@@ -20,8 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.bernstein import positive_force
-from ..errors import SolverError, UnsupportedError
-from ..fem.assembly import frozen
+from ..errors import SolverError, UnsupportedError, frozen
 from .blocks import Units
 
 __all__ = ["Slip", "friction_weights", "obstacle_slip", "row_weights", "slip_rows"]

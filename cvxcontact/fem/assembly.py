@@ -40,7 +40,7 @@ from ..errors import SceneError
 from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "NodePattern", "assemble", "assemble_loads", "assemble_matrices", "coefficients",
-           "constrained", "frozen", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
+           "constrained", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
            "strain_matrix", "strain_points", "voigt_strains"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
@@ -344,25 +344,6 @@ def constrained(body, Kuu, Kup=None, Kpp=None, nodes=None) -> BodySystem:
         system.phi_free = _representative(Tp)
         system.charge = np.zeros(int(floating.sum()))
     return system
-
-
-def frozen(A: sp.spmatrix | None) -> sp.spmatrix | None:
-    """``A`` in canonical form with read-only arrays: a compressed sparse matrix (CSR/CSC) gets its indices sorted
-    and its duplicates summed, in place, once (explicit zeros are kept), then its ``data``, ``indices`` and
-    ``indptr`` made read-only; a matrix without ``indptr`` (COO, DIA...), or None, is returned as it is.
-    Returns ``A``.
-
-    What a :class:`~cvxcontact.discrete.problem.DiscreteProblem` holds is only read by a solve, yet SciPy sorts a
-    non-canonical matrix in place on first use by some operations (``abs(A)``, ``A.sum_duplicates()``): the order
-    of its entries, and with it the rounding of sums over them, changed between a problem's first and its second
-    solve. In canonical form nothing is left to sort, and any in-place change raises at once (ValueError)."""
-    if getattr(A, "indptr", None) is None:
-        return A
-    if not A.has_canonical_format:
-        A.sum_duplicates()
-    for a in (A.data, A.indices, A.indptr):
-        a.flags.writeable = False
-    return A
 
 
 def _representative(T):

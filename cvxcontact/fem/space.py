@@ -28,10 +28,10 @@ from ..contact.laws import RowLaws, pair_laws
 from ..contact.quadratic import ConditionRows, QuadraticStack, p2_pairs
 from ..contact.quadratic3d import QuadraticSurface
 from ..contact.truegap import GapDeparture
-from ..errors import SceneError, SolverError, UnsupportedError
+from ..errors import SceneError, SolverError, UnsupportedError, frozen
 from ..geometry.quadratic import P2Nodes, P2TetNodes, Q2HexNodes, Q2Nodes
 from . import p2
-from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, frozen, gradients, \
+from .assembly import BodySystem, assemble_loads, assemble_matrices, assemble_points, gradients, \
     strain_at, strain_points
 from .hex import HEX1_ELEMENT, HEX2_ELEMENT
 from .hexfaces import FACE_TRACE, dependent_law_rows, hex_contact, hex_pair, independent_rows, law_weights

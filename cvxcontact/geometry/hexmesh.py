@@ -23,9 +23,9 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..errors import FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError, locked
 from .base import CellMesh, cell_corners
-from .meshchecks import checked_renumbering, frozen_copy, one_orientation
+from .meshchecks import checked_renumbering, one_orientation
 from .tetmesh import TetMesh, as_points3
 
 __all__ = ["HexMesh", "HEX_FACES", "HEX_EDGES", "CORNERS", "read_hexes"]
@@ -91,9 +91,9 @@ class HexMesh(CellMesh):
         tets = _split_cells(faces, rank, len(points) + np.repeat(np.arange(len(h)), 6))
         split = TetMesh(np.concatenate([points, centres]), tets,
                         {t: _triangles(f, rank) for t, f in tags.items()})
-        self._set(_points=split.points[:len(points)], _hexes=frozen_copy(h, np.int64), split=split,
-                  _boundary_faces=frozen_copy(bfaces, np.int64), boundary_cells=frozen_copy(owned // 6, np.int64),
-                  _tags=FrozenMap({t: frozen_copy(f, np.int64) for t, f in tags.items()}, "HexMesh boundaries",
+        self._set(_points=split.points[:len(points)], _hexes=locked(h, np.int64), split=split,
+                  _boundary_faces=locked(bfaces, np.int64), boundary_cells=locked(owned // 6, np.int64),
+                  _tags=FrozenMap({t: locked(f, np.int64) for t, f in tags.items()}, "HexMesh boundaries",
                                   "build a new HexMesh"))
 
     def _frozen_hint(self, name: str) -> str:
@@ -143,7 +143,7 @@ class HexMesh(CellMesh):
         t = 1.0 / np.sqrt(3.0)
         X = self.points[self.hexes]
         vol = sum(_jacobian(X, np.array([a, b, c]) * t)[1] for a in (-1, 1) for b in (-1, 1) for c in (-1, 1))
-        return frozen_copy(vol, float)
+        return locked(vol, float)
 
     @property
     def node_components(self) -> np.ndarray:
@@ -153,7 +153,7 @@ class HexMesh(CellMesh):
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each cell."""
-        return frozen_copy(self.split.components[::12], np.int64)
+        return locked(self.split.components[::12], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 4) faces carrying ``tag``, corners in order around each with the right-hand normal outward

@@ -30,7 +30,6 @@ from .meshchecks import (
     check_nodes,
     checked_renumbering,
     edge_table,
-    frozen_copy,
     orient,
     signed_areas,
 )
@@ -83,15 +82,15 @@ class Mesh(CellMesh):
         triangles = cell_corners(triangles, 3, "triangles", len(points))
         check_nodes(points, triangles)
         triangles = orient(points, triangles)
-        self._set(_points=frozen_copy(points, float), _triangles=frozen_copy(triangles, np.int64))
+        self._set(_points=locked(points, float), _triangles=locked(triangles, np.int64))
         table = edge_table(self._triangles, len(points))
         keys, edges = boundary_edges(self._triangles, len(points), table)
         check_embedding(self._points, self._triangles, edges, table)
-        self._set(_boundary_keys=frozen_copy(keys, np.int64), _boundary_edges=frozen_copy(edges, np.int64))
+        self._set(_boundary_keys=locked(keys, np.int64), _boundary_edges=locked(edges, np.int64))
         if boundaries is not None and not isinstance(boundaries, Mapping):
             raise MeshError(f"boundaries must be a dict mapping tags to (k, 2) arrays of node pairs, "
                             f"got {type(boundaries).__name__}")
-        self._set(_tags=FrozenMap({str(tag): frozen_copy(self._orient_edges(str(tag), tagged), np.int64)
+        self._set(_tags=FrozenMap({str(tag): locked(self._orient_edges(str(tag), tagged), np.int64)
                                    for tag, tagged in (boundaries or {}).items()},
                                   "Mesh boundaries", "build a new Mesh"))
 
@@ -174,7 +173,7 @@ class Mesh(CellMesh):
         _, first = np.unique(labels, return_index=True)
         rank = np.empty(len(first), dtype=np.int64)
         rank[np.argsort(first)] = np.arange(len(first))   # number by lowest node index
-        return frozen_copy(rank[labels], np.int64)
+        return locked(rank[labels], np.int64)
 
     @cached_property
     def components(self) -> np.ndarray:
@@ -182,7 +181,7 @@ class Mesh(CellMesh):
 
         ``components.max() + 1`` is the number of separate pieces of the body.
         """
-        return frozen_copy(self.node_components[self.triangles[:, 0]], np.int64)
+        return locked(self.node_components[self.triangles[:, 0]], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their triangle (domain on the left; read-only)."""

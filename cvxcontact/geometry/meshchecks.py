@@ -13,7 +13,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from ..errors import MeshError, locked
+from ..errors import MeshError
 
 DUPLICATE_TOL = 1e-8
 """Two nodes closer than this times the longest edge at either node are duplicates."""
@@ -24,11 +24,6 @@ tetrahedron at once, were the peak of building a large tetrahedral mesh)."""
 
 
 # --------------------------------------------------------------------------- validation helpers
-
-def frozen_copy(a, dtype):
-    """A C-contiguous read-only copy of ``a`` (:func:`locked`: its writing cannot be turned back on)."""
-    return locked(np.array(a, dtype=dtype, order="C", copy=True))
-
 
 def as_points(points):
     """The (n, 2) float array of a planar mesh's ``points`` (m; a constant third coordinate dropped), checked:

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike
 from ..errors import MeshError, locked
 from .base import CellMesh, cell_corners
 from .mesh import Mesh
-from .meshchecks import as_points, checked_renumbering, frozen_copy, one_orientation
+from .meshchecks import as_points, checked_renumbering, one_orientation
 
 __all__ = ["QuadMesh", "CONVEX_TOL"]
 
@@ -62,7 +62,7 @@ class QuadMesh(CellMesh):
         points = as_points(points)
         q = _orient(points, cell_corners(quads, 4, "quads", len(points)))
         split = Mesh(points, q[:, [0, 1, 2, 0, 2, 3]].reshape(-1, 3), boundaries)   # every Mesh check
-        self._set(_points=split.points, _quads=frozen_copy(q, np.int64), split=split)
+        self._set(_points=split.points, _quads=locked(q, np.int64), split=split)
 
     def _frozen_hint(self, name: str) -> str:
         return "build a new QuadMesh (mesh.with_points(points) moves or scales it)"
@@ -108,7 +108,7 @@ class QuadMesh(CellMesh):
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each cell."""
-        return frozen_copy(self.split.components[::2], np.int64)
+        return locked(self.split.components[::2], np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 2) edges carrying ``tag``, oriented as in their cell (domain on the left; read-only)."""

@@ -65,8 +65,8 @@ class P2Nodes(_SegmentTraces):
         nv = len(mesh.points)
         self._keys, mids, middles = _numbered_edges(mesh.points, tri, [[0, 1], [1, 2], [2, 0]])
         self.n_vertices = nv
-        self.points = _frozen(np.concatenate([mesh.points, middles]))
-        self.triangles = _frozen(np.column_stack([tri, mids]))
+        self.points = locked(np.concatenate([mesh.points, middles]))
+        self.triangles = locked(np.column_stack([tri, mids]))
 
     @property
     def cells(self) -> np.ndarray:
@@ -91,8 +91,8 @@ class P2TetNodes(_MidpointNodes):
         nv = len(mesh.points)
         self._keys, mids, middles = _numbered_edges(mesh.points, tets, EDGES)
         self.n_vertices = nv
-        self.points = _frozen(np.concatenate([mesh.points, middles]))
-        self.tets10 = _frozen(np.column_stack([tets, mids]))
+        self.points = locked(np.concatenate([mesh.points, middles]))
+        self.tets10 = locked(np.column_stack([tets, mids]))
 
     @property
     def cells(self) -> np.ndarray:
@@ -126,8 +126,8 @@ class Q2Nodes(_SegmentTraces):
         nv = len(mesh.points)
         self._keys, mids, middles = _numbered_edges(mesh.points, quads, EDGES)
         self.n_vertices = nv
-        self.points = _frozen(np.concatenate([mesh.points, middles, mesh.points[quads].mean(axis=1)]))
-        self.quads9 = _frozen(np.column_stack([quads, mids, nv + len(middles) + np.arange(len(quads))]))
+        self.points = locked(np.concatenate([mesh.points, middles, mesh.points[quads].mean(axis=1)]))
+        self.quads9 = locked(np.column_stack([quads, mids, nv + len(middles) + np.arange(len(quads))]))
 
     @property
     def cells(self) -> np.ndarray:
@@ -159,8 +159,8 @@ class Q2HexNodes(_MidpointNodes):
         first = nv + len(middles)
         centres = mesh.points[self._faces].mean(axis=1)
         self.n_vertices = nv
-        self.points = _frozen(np.concatenate([mesh.points, middles, centres, mesh.points[hexes].mean(axis=1)]))
-        self.hexes27 = _frozen(np.column_stack([hexes, mids, first + inverse.reshape(len(hexes), 6),
+        self.points = locked(np.concatenate([mesh.points, middles, centres, mesh.points[hexes].mean(axis=1)]))
+        self.hexes27 = locked(np.column_stack([hexes, mids, first + inverse.reshape(len(hexes), 6),
                                                 first + len(centres) + np.arange(len(hexes))]))
 
     @property
@@ -242,7 +242,3 @@ def _midpoint(keys, nv, a, b):
     if (pos >= len(keys)).any() or (keys[np.minimum(pos, len(keys) - 1)] != key).any():
         raise MeshError("midpoint(): a vertex pair that is not an edge of the mesh")
     return nv + pos
-
-
-def _frozen(a):
-    return locked(np.array(a))

@@ -18,10 +18,10 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import FrozenMap, MeshError
+from ..errors import FrozenMap, MeshError, locked
 from .base import CellMesh
 from .facets import facet_keys
-from .meshchecks import check_nodes, checked_renumbering, frozen_copy, one_orientation
+from .meshchecks import check_nodes, checked_renumbering, one_orientation
 
 __all__ = ["TetMesh"]
 
@@ -88,13 +88,13 @@ class TetMesh(CellMesh):
         tets = _as_tets(tets, len(points))
         check_nodes(points, tets, "tetrahedron")
         tets = _orient(points, tets)
-        self._set(_points=frozen_copy(points, float), _tets=frozen_copy(tets, np.int64))
+        self._set(_points=locked(points, float), _tets=locked(tets, np.int64))
         keys, faces = _check_embedding(self._points, self._tets)
-        self._set(_boundary_keys=frozen_copy(keys, np.int64), _boundary_faces=frozen_copy(faces, np.int64))
+        self._set(_boundary_keys=locked(keys, np.int64), _boundary_faces=locked(faces, np.int64))
         if boundaries is not None and not isinstance(boundaries, Mapping):
             raise MeshError(f"boundaries must be a dict mapping tags to (k, 3) arrays of node triples, "
                             f"got {type(boundaries).__name__}")
-        self._set(_tags=FrozenMap({str(tag): frozen_copy(self._orient_faces(str(tag), tagged), np.int64)
+        self._set(_tags=FrozenMap({str(tag): locked(self._orient_faces(str(tag), tagged), np.int64)
                                    for tag, tagged in (boundaries or {}).items()},
                                   "TetMesh boundaries", "build a new TetMesh"))
 
@@ -155,7 +155,7 @@ class TetMesh(CellMesh):
     @cached_property
     def volumes(self) -> np.ndarray:
         """(m,) tetrahedron volumes in m^3 (read-only)."""
-        return frozen_copy(_signed_volumes(self.points, self.tets), float)
+        return locked(_signed_volumes(self.points, self.tets), float)
 
     @cached_property
     def node_components(self) -> np.ndarray:
@@ -168,12 +168,12 @@ class TetMesh(CellMesh):
         _, first = np.unique(labels, return_index=True)
         rank = np.empty(len(first), dtype=np.int64)
         rank[np.argsort(first)] = np.arange(len(first))
-        return frozen_copy(rank[labels], np.int64)
+        return locked(rank[labels], np.int64)
 
     @cached_property
     def components(self) -> np.ndarray:
         """(m,) connected-component label of each tetrahedron (read-only), as :attr:`node_components`."""
-        return frozen_copy(self.node_components[self.tets[:, 0]], np.int64)
+        return locked(self.node_components[self.tets[:, 0]], np.int64)
 
     @property
     def boundary_faces(self) -> np.ndarray:
@@ -186,7 +186,7 @@ class TetMesh(CellMesh):
         keys = facet_keys(np.sort(self.tets[:, OUTWARD_FACES].reshape(-1, 3), axis=1), len(self.points))
         order = np.argsort(keys, kind="stable")
         where = np.searchsorted(keys[order], facet_keys(np.sort(self._boundary_faces, axis=1), len(self.points)))
-        return frozen_copy(order[where] // 4, np.int64)
+        return locked(order[where] // 4, np.int64)
 
     def boundary(self, tag: str) -> np.ndarray:
         """(k, 3) faces carrying ``tag``, oriented so that (p1 - p0) x (p2 - p0) points out (read-only)."""

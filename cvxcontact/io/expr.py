@@ -19,7 +19,7 @@ import operator
 
 import numpy as np
 
-from ..errors import SceneError
+from ..errors import SceneError, locked
 
 __all__ = ["Expression", "ExpressionError", "FUNCTIONS", "ARITY", "VARIABLES"]
 
@@ -86,7 +86,7 @@ class Expression:
         if len(coords) != len(self.variables):
             raise ExpressionError(f"{_short(self.text)} is a function of ({', '.join(self.variables)}); called with "
                                   f"{len(coords)} coordinate array(s)")
-        coords = [_frozen(c) for c in coords]
+        coords = [locked(c, float) for c in coords]
         env = dict(zip(self.variables, coords))
         with np.errstate(all="ignore"):  # NaN/inf are reported below (with ``where``) or by the caller
             out = np.asarray(_eval(self._body, env), dtype=float) + 0.0 * sum(coords)
@@ -101,12 +101,6 @@ class Expression:
 def _short(text):
     """The expression quoted for a message, cut to 60 characters."""
     return repr(text if len(text) <= 60 else text[:57] + "...")
-
-
-def _frozen(a):
-    a = np.array(a, dtype=float)          # always a copy
-    a.setflags(write=False)
-    return a
 
 
 def _check_size(root):

@@ -404,7 +404,7 @@ class Load(Frozen):
 
     def __call__(self, *coords) -> np.ndarray:
         """Values at points (x, y) or (x, y, z) in metres: shape (k,) for scalars, (k, ncomp) for vectors."""
-        coords = [_frozen(c) for c in coords]
+        coords = [locked(c, float) for c in coords]
         x = coords[0]
         v = self.value
         if not callable(v):
@@ -461,8 +461,3 @@ def _kind(value) -> str:
     if isinstance(value, (list, tuple)):
         return f"a {type(value).__name__} holding {', '.join(sorted({type(v).__name__ for v in value}))}"
     return f"a value of type {type(value).__name__}"
-
-
-def _frozen(a):
-    """A read-only float copy of ``a`` (writing cannot be turned back on)."""
-    return locked(np.array(a, dtype=float))

@@ -122,7 +122,7 @@ class Piezoelectric(Frozen):
         if R is not None:
             c3, e3, k3 = _rotate3(R, self.c3, self.e3, self.kappa3)
             obj = Piezoelectric.from_matrices(c3, e3, k3, name=self.name)
-            obj._set(c12=self.c12, angle=self.angle, rotation=_frozen_rotation(R @ self.rotation))
+            obj._set(c12=self.c12, angle=self.angle, rotation=locked(R @ self.rotation, float))
             return obj
         angle = _real(rotation, "angle", self.name)
         c, e, kappa, out = _rotate(self.c, self.e, self.kappa, self.out_of_plane, angle)
@@ -130,7 +130,7 @@ class Piezoelectric(Frozen):
         R = _plane_rotation(angle)
         c3, e3, k3 = _rotate3(R, self.c3, self.e3, self.kappa3) if self.c3 is not None else (None, None, None)
         obj._set(c12=self.c12, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle,
-                 rotation=_frozen_rotation(R @ self.rotation), c3=_read_only(c3), e3=_read_only(e3),
+                 rotation=locked(R @ self.rotation, float), c3=_read_only(c3), e3=_read_only(e3),
                  kappa3=_read_only(k3))
         return obj
 
@@ -191,14 +191,14 @@ class Elastic(Frozen):
         R = _rotation(rotation, self)
         if R is not None:
             obj = Elastic(_rotate3(R, self.c3)[0], name=self.name)
-            obj._set(E=self.E, nu=self.nu, angle=self.angle, rotation=_frozen_rotation(R @ self.rotation))
+            obj._set(E=self.E, nu=self.nu, angle=self.angle, rotation=locked(R @ self.rotation, float))
             return obj
         angle = _real(rotation, "angle", self.name)
         c, _, _, out = _rotate(self.c, None, None, self.out_of_plane, angle)
         obj = Elastic(c, name=self.name)
         R = _plane_rotation(angle)
         obj._set(E=self.E, nu=self.nu, out_of_plane=_row(out), plane=self.plane, angle=self.angle + angle,
-                 rotation=_frozen_rotation(R @ self.rotation),
+                 rotation=locked(R @ self.rotation, float),
                  c3=_read_only(_rotate3(R, self.c3)[0]) if self.c3 is not None else None)
         return obj
 
@@ -414,19 +414,15 @@ def _rotation(rotation, mat):
     return R
 
 
-def _frozen_rotation(R):
-    return locked(np.array(R, dtype=float))
-
-
 def _read_only(a):
-    return None if a is None else locked(np.array(a, dtype=float))
+    return None if a is None else locked(a, float)
 
 
 def _row(out):
     """The out-of-plane row (a, c22, b) with read-only arrays, or None."""
     if out is None:
         return None
-    arrays = [None if v is None else locked(np.array(v, dtype=float)) for v in (out[0], out[2])]
+    arrays = [None if v is None else locked(v, float) for v in (out[0], out[2])]
     return arrays[0], float(out[1]), arrays[1]
 
 

@@ -73,7 +73,9 @@ class NonUniqueWarning(UserWarning):
 def user_stacklevel() -> int:
     """The ``stacklevel`` of ``warnings.warn`` called where this is called that names the first frame outside the
     cvxcontact package: the user's line, however many of the package's calls lie between (``cvxcontact.solve``,
-    ``ContactSolver.solve``, ``ContactSolver.solve_many`` reach the same warning through different depths)."""
+    ``ContactSolver.solve``, ``ContactSolver.solve_many``, ``Model.solve`` and ``cvxcontact.adapt`` reach the same
+    warning through different depths). Every ``warnings.warn`` of the package passes it
+    (tests/test_warning_location.py)."""
     package = os.path.dirname(os.path.abspath(__file__)) + os.sep
     frame, level = sys._getframe(1), 1
     while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(package):

@@ -48,6 +48,6 @@ def indented_block(nx=8, ny=2):
 def half_model(degree_nx=16, force=(0.0, -1e7), center_x=0.0, roller="left"):
     """A block clamped at its bottom under a force-controlled circle, a symmetry roller on x = 0 (the half
     model: the circle straddles the symmetry line); ``center_x=0.5`` and no roller: the whole model."""
-    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=degree_nx, ny=4), ALU, clamped="bottom", roller=roller,
-                    contact="top", name="block")
+    block = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, 0.5), nx=degree_nx, ny=4), ALU, clamped="bottom",
+                    roller=roller, contact="top", name="block")
     return cc.Scene(block, contacts=[cc.Contact(block, "top", cc.Rigid.circle((center_x, 1.1), 0.6, force=force))])

@@ -50,8 +50,9 @@ def _estimate(kind, split, degree):
     elif kind == "layer2d":
         obstacles = (line(-1.0, 2.0),) if split is None else SPLITS_2D[split]
         scene = uniform_layer(0.2 * P, cc.Tresca(2 * P), obstacles=obstacles)
-    else:
-        scene = uniform_layer3d(0.2 * P, cc.Tresca(2 * P), n=3, obstacles=FRICTION_3D[split or "floor"])
+    else:                                                    # "layer3d" (Tresca), "coulomb3d"
+        law = cc.Coulomb(0.5) if kind == "coulomb3d" else cc.Tresca(2 * P)
+        scene = uniform_layer3d(0.2 * P, law, n=3, obstacles={**FRICTION_3D, **OVERLAPS_3D}[split or "floor"])
     sol = cc.solve(scene, "sigma1", degree=degree)
     assert sol.ok
     return sol.estimate
@@ -187,6 +188,14 @@ def test_layer2d_stuck_on_split_floor(split):
 def test_layer3d_stuck_on_split_floor(degree):
     _same_as_one("layer3d", "x = 0.4", degree)
     assert _estimate("layer3d", "x = 0.4", degree).parts["friction cone"] == 0.0     # was 1.24 (P2)
+
+
+@pytest.mark.parametrize("kind", ["layer3d", "coulomb3d"])
+def test_layer3d_p2_stuck_on_strips_and_a_floor(kind):
+    """The P2 layer stuck (Tresca 2 p, Coulomb 0.5) on strips x < 0.7, x >= 0.3 and a whole floor: t_h read once
+    per side as lambda_h (solution/sides.py), the single floor's estimate. Each pair the representer of its own
+    share of the tangential forces: contact traction 0.487 (Tresca), 0.485 (Coulomb) against norm^2 540."""
+    _same_as_one(kind, "overlap and floor", 2)
 
 
 @pytest.mark.parametrize("degree", [1, 2])

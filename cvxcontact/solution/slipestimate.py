@@ -22,9 +22,10 @@ trace of the space decides (``ContactResult.trace.friction_fields``, :mod:`cvxco
   Riesz representer of the row forces in X_h, M t_h = f per tangential component, as lambda_h is (exact for a
   uniform traction), read once per side where several pairs hold one part (:mod:`.sides`, by the friction
   read-back: ``ContactResult.shear_multiplier``); g_h the threshold the solution reports at every node (Tresca g;
-  Coulomb mu p with p the representer lambda_h). The slip complementarity reads the traction the rows prescribe instead (``Friction.r``,
-  the lumped read-back): a sliding row's force is g w_a, whose representer oscillates about g by a pattern the
-  size of g at every mesh size and would charge every sliding face by a fixed fraction of g |[u_t]| whatever h.
+  Coulomb mu p with p the representer lambda_h). The slip complementarity reads the traction the rows prescribe
+  instead (``Friction.r``, the lumped read-back): a sliding row's force is g w_a, whose representer oscillates
+  about g by a pattern the size of g at every mesh size and would charge every sliding face by a fixed fraction of
+  g |[u_t]| whatever h.
 
 On each cell S of the contact mesh (2D: the merged segments) two terms, in the estimator's units (J/m in 2D):
 

@@ -414,7 +414,7 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         if pr["sides"][0].key in sided:              # obstacles sharing the part: read on the side, once
             terms = {}
             if last[pr["sides"][0].key] == i:
-                _share(*_side_gap_terms([pairs[j] for j in sided[pr["sides"][0].key]], cache, Lq, wq), data, eta2,
+                _share(*_side_gap_terms([pairs[j] for j in sided[pr["sides"][0].key]], cache, N, wq), data, eta2,
                        parts)
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
             first = pr["sides"][0]
@@ -438,13 +438,14 @@ def _gap_sides(sol, pairs, held, signorini) -> dict:
             and all(pairs[i]["itf"].rigid and not getattr(sol.contacts[i].law, "compliant", False) for i in group)}
 
 
-def _side_gap_terms(group, cache, Lq, wq):
+def _side_gap_terms(group, cache, N, wq):
     """(owners, terms) of :func:`_share`: the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
     c_T / h_S ||([u_h nu] - g)^+||_S^2 of a side held by several obstacles (``group``: their
     :func:`_pair_fields3d`), on each face S of the side that one of them holds, once: lambda_h the pairs' functions
     summed (the side's, :mod:`~cvxcontact.solution.sides`), g - [u_h nu] at each node of the trace the least over
     the pairs reaching it (the nearest obstacle's; 0 at a node none reaches, as each pair's function is 0 beyond its
-    reach). Each pair's of its own functions on the faces a cut crosses read neither (docs/accuracy.md)."""
+    reach); by the rule of shape values ``N`` (q, 3 | 6) and weights ``wq`` (q,) on each face. Each pair's of its
+    own functions on the faces a cut crosses read neither (docs/accuracy.md)."""
     side, trace = group[0]["sides"][0], group[0]["itf"].traces[0]
     faces = np.asarray(trace.faces)                                      # (f, 3 | 6) the trace's nodes
     lam, gap = np.zeros(len(trace.nodes)), np.full(len(trace.nodes), np.inf)
@@ -460,7 +461,6 @@ def _side_gap_terms(group, cache, Lq, wq):
         held.append(face)
     held = np.unique(np.concatenate(held))
     gap = np.where(np.isfinite(gap), gap, 0.0)
-    N = Lq if faces.shape[1] == 3 else shape_functions(Lq)
     lq, oq = lam[faces[held]] @ N.T, gap[faces[held]] @ N.T                                  # (e, q)
     corners = np.asarray(side.trace.x)[faces[held][:, :3]]
     d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]

@@ -12,11 +12,14 @@ Read once, every pair reads the closed-form pressure.
 
 import numpy as np
 import pytest
+from friction_scenes import DIAGONAL3, P, uniform_layer3d
 from hex_scenes import DELTA, M_S, H
 from reach_scenes import block2d, block3d, box_on_boxes, line, lowered, strip
 
 import cvxcontact as cc
+from cvxcontact.contact.interface import row_frames
 from cvxcontact.solution.sides import side_multiplier
+from cvxcontact.solution.slipestimate import nodal_vectors
 
 pytestmark = [pytest.mark.numerics, pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]
 
@@ -138,3 +141,38 @@ def test_obstacle_open_at_a_node_takes_no_share_of_it(dim, degree):
     est = sol.estimate
     # measured |contact traction| <= 1.2e-16 of norm^2 (5 kernel sets)
     assert abs(est.parts["contact traction"]) <= 1e-12 * est.norm ** 2
+
+
+@pytest.fixture(scope="module", params=["Tresca", "Coulomb"])
+def layer_on_strips(request):
+    """The 3 x 3 x 1 P2 layer stuck under the uniform shear tau = 0.2 p (:func:`uniform_layer3d`) on strips
+    x < 0.7, x >= 0.3 and a whole floor (three pairs on its bottom), under Tresca 2 p or Coulomb 0.5."""
+    law = cc.Tresca(2 * P) if request.param == "Tresca" else cc.Coulomb(0.5)
+    return cc.solve(uniform_layer3d(0.2 * P, law, n=3, obstacles=(strip(-1.0, 0.7), strip(0.3, 2.0),
+                                                                   strip(-1.0, 2.0))), "sigma1", degree=2)
+
+
+def test_friction_t_h_read_once_per_side(layer_on_strips):
+    """A friction law's t_h on 3D P2 faces is read once per side as lambda_h is: the pairs' t_h summed at each node
+    of the bottom is the uniform shear -tau (the first body's sigma n, closed form). Each pair the representer of its
+    own share of the tangential forces read up to 0.82 tau off it (contact traction 0.487 against norm^2 540)."""
+    sol = layer_on_strips
+    total: dict = {}
+    for i, c in enumerate(sol.contacts):
+        t = nodal_vectors(c.shear_multiplier, row_frames(sol._pair_line(i)))[:-1]
+        for p, v in zip(np.round(c.points, 9), t):
+            total[tuple(p)] = total.get(tuple(p), 0.0) + v
+    t = np.array(list(total.values()))
+    assert len(t) == 49                                               # the bottom's P2 nodes, each reached
+    tau = 0.2 * P * DIAGONAL3
+    # measured <= 5.2e-14 tau (Tresca), 3.6e-14 (Coulomb), 5 kernel sets; before 0.82 tau
+    assert np.abs(t[:, :2] + tau).max() <= 1e-11 * 0.2 * P
+    assert np.abs(t[:, 2]).max() == 0.0                                # in the plane
+
+
+def test_friction_t_h_of_a_pair_alone_is_its_own():
+    """A pair alone on its part reads its own representer of its tangential forces (bit for bit)."""
+    sol = cc.solve(uniform_layer3d(0.2 * P, cc.Tresca(2 * P), n=2), "sigma1", degree=2)
+    c, itf = sol.contact, sol._pair_line(0)
+    own = np.column_stack([itf.multiplier(col) for col in np.asarray(c.shear_force).T])
+    assert np.array_equal(c.shear_multiplier, own)

@@ -136,6 +136,10 @@ class LinearTrace:
         forces ``force`` on the nodes of X_h."""
         return itf.pressure(k, force)
 
+    def shear_multiplier(self, lines, forces, read) -> None:
+        """None: t_h is the lumped read-back of the rows' forces (:meth:`friction_fields`), not a representer of
+        the tangential ``forces`` of the contact ``lines``."""
+
     def friction_fields(self, itf, condition: str, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(t_h, t_r, g_h) at every node of X_h of the pair ``itf``: the tangential traction t_h (Pa, on the
         first body; (n,) along the pair's tangent in 2D, (n, 2) along its frame in 3D), the traction the
@@ -321,6 +325,18 @@ class QuadraticTrace(LinearTrace):
             return itf.pressure(k, force)
         return (itf.interpolation(k).T @ force) / quadratic_lumped(itf.traces[k].x)
 
+    def shear_multiplier(self, lines, forces, read) -> np.ndarray | None:
+        """3D: t_h (per unit area of ``forces``' unit: Pa from N) at the stacked nodes of X_h of the contact
+        ``lines`` (one pair or their stack), the Riesz representer of the tangential nodal ``forces`` (size, 2)
+        in X_h per component as ``read`` (stacked forces -> lambda_h: the lines' multiplier read once per side,
+        :mod:`cvxcontact.solution.sides`) reads lambda_h; what :meth:`friction_fields` reads
+        (``contact.shear_multiplier``). 2D: None (the lumped read-back)."""
+        first = lines.interfaces[0] if hasattr(lines, "interfaces") else lines
+        if np.ndim(first.x) == 1:
+            return None
+        f = np.asarray(forces, dtype=float)
+        return np.column_stack([read(col) for col in f.reshape(len(f), -1).T]).reshape(f.shape)
+
     def friction_fields(self, itf, condition: str, contact) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """2D: the lumped read-back (:meth:`LinearTrace.friction_fields`; Simpson's weights are the consistent
         loads of a constant). 3D: t_h the Riesz representer of the row forces in X_h, per tangential component,
@@ -330,11 +346,15 @@ class QuadraticTrace(LinearTrace):
         0 and 4/3 tau, whose interpolant reaches 16/9 tau inside. t_r the lumped read-back (the rows' law: a
         sliding row's force g w_a is t_r = g, whose representer oscillates about g by a pattern the size of g
         at every h). g_h the threshold the solution reports at every node of X_h (Tresca g; Coulomb under
-        "sigma1"/"sigma2" the rows' capacities mu y_a over their own weights, as t_r reads the shear)."""
+        "sigma1"/"sigma2" the rows' capacities mu y_a over their own weights, as t_r reads the shear). t_h read once
+        per side where the read-back did (``contact.shear_multiplier``, :meth:`shear_multiplier`), else the pair's
+        own representer."""
         if np.ndim(contact.x) == 1:
             return super().friction_fields(itf, condition, contact)
         f = np.asarray(contact.shear_force, dtype=float)
-        t = np.column_stack([itf.multiplier(col) for col in f.reshape(len(f), -1).T]).reshape(f.shape)
+        t = getattr(contact, "shear_multiplier", None)
+        if t is None:
+            t = np.column_stack([itf.multiplier(col) for col in f.reshape(len(f), -1).T]).reshape(f.shape)
         rows = super().friction_fields(itf, condition, contact)[1]
         return t, rows, np.broadcast_to(np.asarray(contact.threshold, dtype=float), (len(f),)).copy()
 

@@ -355,6 +355,7 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
             last[ps.key] = i
             held.setdefault(ps.key, []).append(ps)
     acc = {}                                          # per side: int_F |R_F|^2 of its faces
+    sided = _gap_sides(sol, pairs, held, signorini)   # sides whose complementarity is read once (_side_gap_terms)
     for i, (c, pr) in enumerate(zip(sol.contacts, pairs)):
         itf, fr = pr["itf"], pr["fr"]
         elements, corners, hosts = pr["elements"], pr["corners"], pr["hosts"]
@@ -410,6 +411,11 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         pen = areaS * (wq * np.maximum(-open_, 0.0) ** 2).sum(axis=1)
         hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
         terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
+        if pr["sides"][0].key in sided:              # obstacles sharing the part: read on the side, once
+            terms = {}
+            if last[pr["sides"][0].key] == i:
+                _share(*_side_gap_terms([pairs[j] for j in sided[pr["sides"][0].key]], cache, N, wq), data, eta2,
+                       parts)
         if tan is not None:                                            # a friction law (:mod:`.slipestimate`)
             first = pr["sides"][0]
             if len(held[first.key]) == 1:
@@ -418,6 +424,52 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 cone, slides = _shared_friction(first, held[first.key], len(elements), len(wq))
             terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
         _share(owners, terms, data, eta2, parts)
+
+
+def _gap_sides(sol, pairs, held, signorini) -> dict:
+    """{side key: [pair indices]}: the sides (body, part) held by several pairs, every one a Signorini pair against
+    an obstacle, whose complementarity and penetration are read once on the side (:func:`_side_gap_terms`)."""
+    if not signorini:
+        return {}
+    out: dict = {}
+    for i, pr in enumerate(pairs):
+        out.setdefault(pr["sides"][0].key, []).append(i)
+    return {key: group for key, group in out.items() if len(group) > 1 and len(held[key]) == len(group)
+            and all(pairs[i]["itf"].rigid and not getattr(sol.contacts[i].law, "compliant", False) for i in group)}
+
+
+def _side_gap_terms(group, cache, N, wq):
+    """(owners, terms) of :func:`_share`: the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
+    c_T / h_S ||([u_h nu] - g)^+||_S^2 of a side held by several obstacles (``group``: their
+    :func:`_pair_fields3d`), on each face S of the side that one of them holds, once: lambda_h the pairs' functions
+    summed (the side's, :mod:`~cvxcontact.solution.sides`), g - [u_h nu] at each node of the trace the least over
+    the pairs reaching it (the nearest obstacle's; 0 at a node none reaches, as each pair's function is 0 beyond its
+    reach); by the rule of shape values ``N`` (q, 3 | 6) and weights ``wq`` (q,) on each face. Each pair's of its
+    own functions on the faces a cut crosses read neither (docs/accuracy.md)."""
+    side, trace = group[0]["sides"][0], group[0]["itf"].traces[0]
+    faces = np.asarray(trace.faces)                                      # (f, 3 | 6) the trace's nodes
+    lam, gap = np.zeros(len(trace.nodes)), np.full(len(trace.nodes), np.inf)
+    held = []
+    for pr in group:
+        elements, face = pr["elements"], pr["hosts"][0]
+        on = elements >= 0
+        nodes = faces[face][on]
+        mine = np.zeros(len(lam))
+        mine[nodes] = pr["lam"][elements[on]]
+        lam += mine
+        np.minimum.at(gap, nodes, pr["open"][on])
+        held.append(face)
+    held = np.unique(np.concatenate(held))
+    gap = np.where(np.isfinite(gap), gap, 0.0)
+    lq, oq = lam[faces[held]] @ N.T, gap[faces[held]] @ N.T                                  # (e, q)
+    corners = np.asarray(side.trace.x)[faces[held][:, :3]]
+    d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+    hS = np.max([np.linalg.norm(corners[:, a] - corners[:, b], axis=1) for a, b in ((0, 1), (1, 2), (2, 0))], axis=0)
+    comp = area * (wq * np.maximum(lq, 0.0) * np.maximum(oq, 0.0)).sum(axis=1)
+    pen = area * (wq * np.maximum(-oq, 0.0) ** 2).sum(axis=1)
+    on = cache[side.key[0]].side(side.trace.part)
+    return [(side.key[0], on.cell[on.face_of(held)])], {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
 
 
 def _pair_fields3d(sol, i, cache, bodies) -> dict:

@@ -29,6 +29,7 @@ import numpy as np
 from ..backends.finish.forces import friction_scale
 from .checks import equilibrium_with, rigid_balance
 from .nodal import read_columns
+from .sides import side_multiplier
 from .solution import pair_lines
 
 __all__ = ["friction_checks", "obstacle_friction", "read_back_friction"]
@@ -130,12 +131,17 @@ def read_back_friction(problem, raw, sol) -> None:
             return f.thresholds(contact.pressure)
         return f.thresholds(lumped)
 
-    sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=-Tmu[a:b] * un.force,
+    shear = -Tmu * un.force                                               # N/m (3D N) at the nodes of X_h
+    laws = getattr(problem.rows, "laws", ())
+    alone = [i for i, law in enumerate(laws) if law.compliant or law.friction is None]  # as lambda_h; no t_h
+    t_h = trace.shear_multiplier(problem.interface, shear, lambda f: side_multiplier(problem.interface, f, alone,
+                                                                                       sol._closed))
+    sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=shear[a:b],
                             threshold=threshold(i, a, b, c), slip_measure=measure[a:b],
-                            row_shear=row_shear(i, a, b))
+                            row_shear=row_shear(i, a, b), shear_multiplier=None if t_h is None else t_h[a:b])
                     for i, (c, a, b) in enumerate(zip(sol.contacts, offsets[:-1], offsets[1:]))]
     for c in sol.contacts:
-        for f in ("slip", "shear_force", "threshold", "slip_measure", "row_shear"):
+        for f in ("slip", "shear_force", "threshold", "slip_measure", "row_shear", "shear_multiplier"):
             if isinstance(getattr(c, f), np.ndarray):
                 getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]

@@ -151,7 +151,7 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     pts = [n.points for n in nodes]
     return Solution(scene=scene, condition=condition, u=u_si, phi=phi_si, contact=contact, problem=problem_,
                     tol=tol, info=info, energy=float(energy), _checks=checks_, contacts=contacts, points=list(pts),
-                    degree=trace.degree, interface=interface,
+                    degree=trace.degree, interface=interface, _closed=closed,
                     electrodes=electrodes(scene, systems, u_si, phi_si, nodes,
                                           problem.shared("electrode rows", lambda: electrode_rows(scene, systems,
                                                                                                   nodes))))

@@ -25,6 +25,10 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
   functions, on a shared side the forces summed over its pairs. The pairs' overlays are disjoint, so each pair
   reads its own nodes' values.
 
+A friction law's t_h on 3D P2 faces (the Riesz representer of the tangential forces, as lambda_h is of the normal
+ones) is read by the same rule, per tangential component (``trace.shear_multiplier`` from the friction read-back,
+:mod:`cvxcontact.solution.friction`), frictionless pairs each alone.
+
 Other groups (a two-body pair beside obstacles on one part, 2D two-body pairs, pairs reading lambda_h by a
 representer of their own) keep each pair's ``multiplier``, and so does a normal-compliance pair (its read-back sets
 lambda_h from its law; its forces are not summed into a Signorini pair's side).

@@ -20,10 +20,12 @@ trace of the space decides (``ContactResult.trace.friction_fields``, :mod:`cvxco
   and A/4 (the red refinement's lumping, ``ContactResult.slip_measure``): the lumped read-back would read tau as 0
   and 4/3 tau, whose interpolant reaches 16/9 tau inside a face, and charge an exact uniform state. t_h is the
   Riesz representer of the row forces in X_h, M t_h = f per tangential component, as lambda_h is (exact for a
-  uniform traction); g_h the threshold the solution reports at every node (Tresca g; Coulomb mu p with p the
-  representer lambda_h). The slip complementarity reads the traction the rows prescribe instead (``Friction.r``,
-  the lumped read-back): a sliding row's force is g w_a, whose representer oscillates about g by a pattern the
-  size of g at every mesh size and would charge every sliding face by a fixed fraction of g |[u_t]| whatever h.
+  uniform traction), read once per side where several pairs hold one part (:mod:`.sides`, by the friction
+  read-back: ``ContactResult.shear_multiplier``); g_h the threshold the solution reports at every node (Tresca g;
+  Coulomb mu p with p the representer lambda_h). The slip complementarity reads the traction the rows prescribe
+  instead (``Friction.r``, the lumped read-back): a sliding row's force is g w_a, whose representer oscillates
+  about g by a pattern the size of g at every mesh size and would charge every sliding face by a fixed fraction of
+  g |[u_t]| whatever h.
 
 On each cell S of the contact mesh (2D: the merged segments) two terms, in the estimator's units (J/m in 2D):
 

@@ -98,6 +98,11 @@ class ContactResult:
     """A friction law on a P2 pair: the rows' tangential forces over their own weights (Pa; 3D the capacities'
     areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None:
     :attr:`shear_force` over the lumped lengths (areas)."""
+    shear_multiplier: np.ndarray | None = None
+    """A friction law on a 3D P2 pair: t_h (Pa, (n, 2) along the pair's frame), the Riesz representer of the
+    tangential forces in X_h read once per side as :attr:`lam` is (:mod:`cvxcontact.solution.sides`: where several
+    pairs hold one part, the pair's share of the side's t_h), what the error estimate reads
+    (``trace.friction_fields``). None: 2D and P1 (the lumped read-back), or the pair's own representer."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""
@@ -283,6 +288,9 @@ class Solution:
     """Why :attr:`estimate` is None ("" when it is not)."""
     _state: object = field(default=None, repr=False)
     _pending_state: object = field(default=None, repr=False, compare=False)
+    _closed: object = field(default=None, repr=False, compare=False)
+    """Where each pair's contact is closed (bool per stacked node of X_h; None: not read): the nodes the read-back
+    shares a side's lambda_h (and a friction law's t_h) among (:mod:`cvxcontact.solution.sides`)."""
 
     @property
     def state(self):

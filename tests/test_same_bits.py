@@ -13,12 +13,12 @@ route's GMRES started from and was preconditioned by the last solve's step. Ever
 import numpy as np
 import pytest
 from conftest import CACHES, digests
-
-import cvxcontact as cc
 from friction_scenes import pair2d
 from hencky_scenes import indented
 from scenes import SCENES, two_blocks
 from scenes3d import sphere_into_block, two_boxes
+
+import cvxcontact as cc
 
 pytestmark = [pytest.mark.numerics,    # re-run under every OpenBLAS kernel set by .ci/run
               pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]   # (the small Hencky scene's)
@@ -29,14 +29,14 @@ HENCKY = cc.materials.hencky(70e9, 0.3, 1e8, 0.1)
 # function of the load alone; False: a Newton route, which starts another load from the previous answer, or the
 # sparse route on dependent rows, whose exact finish starts from the previous load's regularised set)
 CASES = {
-    "2D sparse": (lambda: two_blocks((8, 4), (5, 3)), dict(condition="sigma1", method="sparse"), 4e9, True),
-    "2D condensed": (lambda: two_blocks((8, 4), (5, 3)), dict(condition="gamma3", method="condensed"), 4e9, True),
-    "2D full": (lambda: two_blocks((8, 4), (5, 3)), dict(condition="sigma1", method="full"), 4e9, True),
+    "2D sparse": (lambda: two_blocks((8, 4), (5, 3)), {"condition": "sigma1", "method": "sparse"}, 4e9, True),
+    "2D condensed": (lambda: two_blocks((8, 4), (5, 3)), {"condition": "gamma3", "method": "condensed"}, 4e9, True),
+    "2D full": (lambda: two_blocks((8, 4), (5, 3)), {"condition": "sigma1", "method": "full"}, 4e9, True),
     "2D P2 cones": (*SCENES["two blocks, P2 gamma3 (cones)"], 4e9, True),
     "2D condensed compliance": (*SCENES["springs in series, compliance"], 1e9, False),
-    "3D sparse, dependent rows": (lambda: two_boxes(4, "gamma3", True), dict(method="sparse"), 3e9, False),
-    "3D AMG, CG": (lambda: sphere_into_block(10), dict(method="amg"), 1e8, True),
-    "3D AMG, GMRES (potentials)": (lambda: two_boxes(6), dict(method="amg"), 3e9, True),
+    "3D sparse, dependent rows": (lambda: two_boxes(4, "gamma3", True), {"method": "sparse"}, 3e9, False),
+    "3D AMG, CG": (lambda: sphere_into_block(10), {"method": "amg"}, 1e8, True),
+    "3D AMG, GMRES (potentials)": (lambda: two_boxes(6), {"method": "amg"}, 3e9, True),
     "2D Hencky (Newton)": (lambda: indented(HENCKY, nx=8, ny=3), {}, 1e6, False),
     "2D Coulomb pair": (lambda: pair2d(cc.Coulomb(0.3)), {}, 1e8, True),
 }

@@ -31,9 +31,10 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
   against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). A set's first solve starts from zero and
   each tighter one from the one before (not from another set's or an earlier re-solve's answer, whose rounding the
-  answer would carry: the answer is a function of its set, the loads and the hierarchy). A set still changing is solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to
-  ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and a loose solve whose set
-  fails its signs stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`).
+  answer would carry: the answer is a function of its set, the loads and the hierarchy). A set still changing is
+  solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so
+  only the last set is solved to ``RTOL``, and a loose solve whose set fails its signs stops as soon as two
+  consecutive iterates imply the same next set (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block

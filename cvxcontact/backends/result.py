@@ -240,7 +240,8 @@ def load_key(problem) -> bytes:
         digest.update(a.tobytes())
 
     for b in problem.blocks:
-        for a in (b.f, b.q, *(v for _, v in sorted(getattr(b.bulk, "__dict__", {}).items()) if isinstance(v, np.ndarray))):
+        bulk = sorted(getattr(b.bulk, "__dict__", {}).items())
+        for a in (b.f, b.q, *(v for _, v in bulk if isinstance(v, np.ndarray))):
             add(np.zeros(0) if a is None else a)
     add(problem.g)
     for R, F in problem.translations:

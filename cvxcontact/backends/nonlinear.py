@@ -469,8 +469,8 @@ def _steps(problem, cache, settings, timings, law, weights, start):
         solver = cache.own["newton"] = TangentSolver(pattern, G, settings.factorization)
     secant, key = SECANT, load_key(problem)
     if settings.warm_start and last is not None and last[2] == key:
-        out = tuple(np.array(a) for a in last[3]) + (0, [])  # this load's answer: its bits, no step (a step
-        #                                                      from it would move it by its rounding)
+        x, active, _, y, z = (np.array(a) for a in last)     # this load's answer: its bits, no step (a step
+        out = (x, y, z, active, 0, [])                       # from it would move it by its rounding)
     else:
         if settings.warm_start and last is not None:
             x0, start = last[:2]                             # the previous answer of this geometry (another
@@ -488,7 +488,8 @@ def _steps(problem, cache, settings, timings, law, weights, start):
     log.info("Newton on (26), no interior point: %d steps (%d factorisations, %d GMRES iterations in all), relative "
              "residuals %s", steps, solver.factorizations, solver.iterations, ", ".join(f"{h:.1e}" for h in history))
     cache.active = active
-    cache.own["newton_answer"] = (x, active, key, tuple(np.array(a) for a in (x, y, z, active)))
+    cache.own["newton_answer"] = (np.array(x), np.array(active), key, np.array(y), np.array(z))   # (copies: the
+    #                                                                     answer's fields view x)
     u, phi, _ = unstacked(problem, x, widths)
     return RawResult(u=u, phi=phi, y=y, z=z, active=active, polished=True, iterations=steps, method="newton",
                      route=Route.NEWTON_DIRECT, finish=Finish.NEWTON_BULK, factorization=solver.kind)

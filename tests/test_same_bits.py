@@ -26,8 +26,8 @@ pytestmark = [pytest.mark.numerics,    # re-run under every OpenBLAS kernel set 
 HENCKY = cc.materials.hencky(70e9, 0.3, 1e8, 0.1)
 
 # name: (scene, options, body 0's body force of another load case (N/m^3, downwards), whether the answer is a
-# function of the load alone; False: a Newton route, which starts another load from the previous answer, or the
-# sparse route on dependent rows, whose exact finish starts from the previous load's regularised set)
+# function of the load alone; False: the Newton and AMG routes, which start another load from the previous answer,
+# or the sparse route on dependent rows, whose exact finish starts from the previous load's regularised set)
 CASES = {
     "2D sparse": (lambda: two_blocks((8, 4), (5, 3)), {"condition": "sigma1", "method": "sparse"}, 4e9, True),
     "2D condensed": (lambda: two_blocks((8, 4), (5, 3)), {"condition": "gamma3", "method": "condensed"}, 4e9, True),
@@ -35,8 +35,8 @@ CASES = {
     "2D P2 cones": (*SCENES["two blocks, P2 gamma3 (cones)"], 4e9, True),
     "2D condensed compliance": (*SCENES["springs in series, compliance"], 1e9, False),
     "3D sparse, dependent rows": (lambda: two_boxes(4, "gamma3", True), {"method": "sparse"}, 3e9, False),
-    "3D AMG, CG": (lambda: sphere_into_block(10), {"method": "amg"}, 1e8, True),
-    "3D AMG, GMRES (potentials)": (lambda: two_boxes(6), {"method": "amg"}, 3e9, True),
+    "3D AMG, CG": (lambda: sphere_into_block(10), {"method": "amg"}, 1e8, False),
+    "3D AMG, GMRES (potentials)": (lambda: two_boxes(6), {"method": "amg"}, 3e9, False),
     "2D Hencky (Newton)": (lambda: indented(HENCKY, nx=8, ny=3), {}, 1e6, False),
     "2D Coulomb pair": (lambda: pair2d(cc.Coulomb(0.3)), {}, 1e8, True),
 }
@@ -96,16 +96,16 @@ def test_solves_without_warm_start_are_a_fresh_solvers(runs):
 
 
 def test_a_load_answered_before_another_keeps_its_bits(runs):
-    """The routes whose answer is a function of the load alone (an exact finish of the final set, the AMG solves
-    from zero on one hierarchy): another load between two solves of a scene changes nothing, and the other load's
-    answer is a fresh solver's. The Newton routes start another load from the previous answer, the sparse route on
-    dependent rows from the previous load's regularised set (kept: fewer steps; docs/explanation/
-    known-behaviour.md): there the answers agree to rounding."""
-    name, exact, one, fresh, _, (sols, cold) = runs
+    """The routes whose answer is a function of the load alone (an exact finish of the final set): another load
+    between two solves of a scene changes nothing, and the other load's answer is a fresh solver's. The Newton and
+    AMG routes start another load from the previous answer, the sparse route on dependent rows from the previous
+    load's regularised set (kept: fewer steps, Krylov iterations; docs/explanation/known-behaviour.md): there the
+    answers agree to rounding."""
+    name, exact, one, fresh, _, (sols, fresh_sols) = runs
     if exact:
         assert one[4] == one[0], name
         assert one[3] == fresh[1], name
         return
-    for a, b in ((sols[4], sols[0]), (sols[3], cold[1])):
+    for a, b in ((sols[4], sols[0]), (sols[3], fresh_sols[1])):
         for x, y in zip(a.u, b.u):
-            assert np.abs(x - y).max() <= 1e-12 * np.abs(y).max(), name     # measured <= 3.1e-15 (default kernels)
+            assert np.abs(x - y).max() <= 1e-7 * np.abs(y).max(), name   # measured <= 1.9e-10 (AMG; 5 kernels)

@@ -29,12 +29,13 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   (P1, 3.1e4 unknowns; answers agreeing to 8e-11 relative): 34 CG iterations in all and one set-up, against 100
   with the bare V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as
   much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
-  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). A set's first solve starts from zero and
-  each tighter one from the one before (not from another set's or an earlier re-solve's answer, whose rounding the
-  answer would carry: the answer is a function of its set, the loads and the hierarchy). A set still changing is
-  solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so
-  only the last set is solved to ``RTOL``, and a loose solve whose set fails its signs stops as soon as two
-  consecutive iterates imply the same next set (:data:`SETTLE`).
+  against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous
+  answer, but a cold one (the first, ``warm_start=False``, or where the previous set led nowhere), which starts from
+  zero: the same load solved again is answered with the same bits (warm: its Krylov solves start at the answer and
+  stop there at once; cold: as a fresh solver). A set still changing is solved loosely: a step tightens its solve
+  through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and
+  a loose solve whose set fails its signs stops as soon as two consecutive iterates imply the same next set
+  (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
@@ -355,6 +356,7 @@ class KrylovContact:
         self.setup_time = 0.0                # seconds: the set-up and the contact-dof factorisations
         self.iterations = 0                  # Krylov iterations, all solves
         self._preconditioner = None          # (closed rows, :meth:`_precondition`) of the last set
+        self.x = None                        # the last answer (the next solve's starting point)
         self._reduction = None               # :meth:`_reduced` of the last set
         self._slave_rows = None              # (set, S's rows at its eliminated dofs): what y reads of S
 
@@ -525,7 +527,7 @@ class KrylovContact:
         """Drops what a solve builds from the blocks and a re-solve builds again (peak memory): S, the stacked
         blocks (a copy of the scaled stiffness), and the last set's preconditioner (its contact rows, their
         factor and the coupling block Kup, a copy), so that the read-back, checks and estimate run without them.
-        Kept: the hierarchies (one set-up per geometry)."""
+        Kept: the hierarchies (one set-up per geometry) and the last answer (the next solve's start)."""
         self.S = None
         self._preconditioner = self._slave_rows = None
 
@@ -558,12 +560,12 @@ class KrylovContact:
                     return None
                 return (y * self.w + s > 0) & movable
 
-            x = None                             # each set's solves start from zero (not the last set's or
-            for rtol in stages:                  # solve's answer): the answer is its set's and loads' alone;
-                out = self._system(active & movable, F, g, x, rtol, verdict)    # loose solves pick the next set,
-                if out is None:                  # the answer is a tight one
+            for rtol in stages:                  # loose solves pick the next set; the answer is a tight one
+                out = self._system(active & movable, F, g, self.x, rtol, verdict)
+                if out is None:
                     return None
                 x, y = out
+                self.x = x
                 new = verdict(x, y)
                 if new is not None:
                     return (x, y), new
@@ -607,7 +609,8 @@ def signorini(problem, cache, settings, timings):
     free = ~problem.held_rows
     warm = settings.warm_start and cache.active is not None
     out = kc.solve(rhs, problem.g, cache.active & free) if warm else None
-    if out is None:
+    if out is None:                              # a cold solve: from zero, not from the last answer, whose
+        kc.x = None                              # rounding the answer would carry (a fresh solver's bits)
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False

@@ -87,7 +87,7 @@ def solve(problem, cache, settings, timings, method: str = "condensed") -> RawRe
 def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     law, w, E, g = problem.scaled_law, problem.weights, problem.E, problem.g
     raw = RawResult(u=None, phi=None, y=None)
-    cond = None
+    cond, key = None, load_key(problem)
     if method == "condensed" or settings.polish:
         reduction = condensation(problem, cache, settings, timings)
         cond, compliance = reduction.bodies, reduction.compliance
@@ -99,7 +99,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
             and not dependent:
         t0 = time.perf_counter()
         answered = cache.own.get("compliance answer")          # this load's answer: its bits (Newton from it
-        if answered is not None and answered[0] == load_key(problem):     # would move it by its rounding)
+        if answered is not None and answered[0] == key:        # would move it by its rounding)
             out = tuple(np.array(a) if isinstance(a, np.ndarray) else a for a in answered[1])
         else:                                                  # another load: from the previous answer
             out = newton(compliance.W, d, w, law, *cache.active)
@@ -153,8 +153,7 @@ def _interface_route(problem, cache, settings, timings, method) -> RawResult:
     if out is not None:
         raw.y, raw.z, raw.polished = out[0], out[1], True
         cache.active = (d - compliance.W @ raw.y, out[2])     # the penetration r and the rows at their limit
-        cache.own["compliance answer"] = (load_key(problem), tuple(np.array(a) if isinstance(a, np.ndarray) else a
-                                                                   for a in out))
+        cache.own["compliance answer"] = (key, tuple(np.array(a) if isinstance(a, np.ndarray) else a for a in out))
     if cond is not None and (raw.polished or method == "condensed"):
         raw.u, raw.phi = reduction.invert(problem, raw.y, timings)
     if not law.limited.any():

@@ -109,3 +109,24 @@ def test_a_load_answered_before_another_keeps_its_bits(runs):
     for a, b in ((sols[4], sols[0]), (sols[3], fresh_sols[1])):
         for x, y in zip(a.u, b.u):
             assert np.abs(x - y).max() <= 1e-7 * np.abs(y).max(), name   # measured <= 1.9e-10 (AMG; 5 kernels)
+
+
+def test_the_load_key_tells_load_cases_apart():
+    """``backends.result.load_key``, what lets a Newton route answer a repeated load with its kept answer: the same
+    for an equal scene built anew, another for each load a scene can change (a body force, a traction, the
+    obstacle's position) and for a load scaled by 2 (the units follow the loads: the same scaled loads, other
+    units)."""
+    from cvxcontact.backends.result import load_key
+
+    def block(lift=0.0, **loads):
+        """tests/hencky_scenes.py's indented block, the circle ``lift`` (m) lower, ``loads``."""
+        b = cc.Body(cc.rectangle(x=(0, 1), y=(0, 0.5), nx=6, ny=3), HENCKY, clamped="bottom", contact="top", **loads)
+        return cc.Scene(b, contacts=[cc.Contact(b, "top", cc.Rigid.circle((0.47, 1.097 - lift), 0.6))])
+
+    problem = cc.ContactSolver(block(), estimate=False).problem
+    key = load_key(problem)
+    assert load_key(problem.with_loads(block())) == key
+    others = [block(body_force=(0.0, -1e6)), block(body_force=(0.0, -2e6)), block(traction={"right": (1e6, 0.0)}),
+              block(lift=1e-3)]
+    keys = [load_key(problem.with_loads(s)) for s in others]
+    assert len(set(keys + [key])) == len(others) + 1

@@ -227,8 +227,8 @@ class Cache:
 
 def load_key(problem) -> bytes:
     """A digest of what a load case sets in a prepared geometry's scaled problem: every block's loads (f, q) and
-    the arrays of its bulk energy (a non-quadratic one reads the prescribed displacements there), the gaps, the
-    force-controlled obstacles' rows and forces and the units. Two problems of one geometry (one contact-row key,
+    the public arrays of its bulk energy (a non-quadratic one reads the prescribed displacements there: e0, d), the
+    gaps, the force-controlled obstacles' rows and forces and the units. Two problems of one geometry (one contact-row key,
     :meth:`Cache.matching`) with the same key pose the same question bit for bit: what lets a route that starts a
     new load from the previous answer (not exact: the answer then carries that start's rounding) answer a repeated
     load with the bits it gave it (docs/explanation/known-behaviour.md, "Same question, same bits")."""
@@ -240,8 +240,8 @@ def load_key(problem) -> bytes:
         digest.update(a.tobytes())
 
     for b in problem.blocks:
-        bulk = sorted(getattr(b.bulk, "__dict__", {}).items())
-        for a in (b.f, b.q, *(v for _, v in bulk if isinstance(v, np.ndarray))):
+        bulk = sorted(getattr(b.bulk, "__dict__", {}).items())          # (its own arrays; not what it caches)
+        for a in (b.f, b.q, *(v for k, v in bulk if not k.startswith("_") and isinstance(v, np.ndarray))):
             add(np.zeros(0) if a is None else a)
     add(problem.g)
     for R, F in problem.translations:

@@ -1,12 +1,14 @@
 """Shared scene builders for the test suite (small sizes: the whole suite runs in seconds)."""
 
 import dataclasses
+import hashlib
 import importlib
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 import cvxcontact as cc
 
@@ -199,3 +201,50 @@ def p2_trace_jump(sol, xs):
     (:func:`p2_trace_side`), body 1 above the line and body 2 below: independent of the merged mesh and of what
     the contact rows or cones hold (m)."""
     return sum((-1.0 if k == 0 else 1.0) * p2_trace_side(sol, k, xs) for k in range(len(sol.scene.bodies)))
+
+
+# what a solve reads and answers, array by array (tests/test_solve_reads_only.py, tests/test_same_bits.py)
+CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
+
+
+def arrays(obj, path="problem", seen=None, out=None, skip=CACHES) -> dict:
+    """Every numpy array reachable from ``obj`` through the package's objects, containers and sparse matrices,
+    by path (the attributes named in ``skip`` left out: by default the caches of :data:`CACHES`)."""
+    seen = set() if seen is None else seen
+    out = {} if out is None else out
+    if id(obj) in seen or obj is None or isinstance(obj, (str, bytes, int, float, complex)):
+        return out
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        if obj.dtype != object:
+            out[path] = obj
+        else:
+            for i, x in enumerate(obj.ravel()):
+                arrays(x, f"{path}[{i}]", seen, out, skip)
+    elif sp.issparse(obj):
+        out.update({f"{path}.{a}": getattr(obj, a) for a in ("data", "indices", "indptr", "row", "col", "offsets")
+                    if isinstance(getattr(obj, a, None), np.ndarray)})
+    elif isinstance(obj, (list, tuple)):
+        for i, x in enumerate(obj):
+            arrays(x, f"{path}[{i}]", seen, out, skip)
+    elif isinstance(obj, dict):
+        for k, x in obj.items():
+            arrays(x, f"{path}[{k!r}]", seen, out, skip)
+    elif type(obj).__module__.startswith("cvxcontact"):
+        names = list(getattr(obj, "__dict__", {}))
+        names += [n for c in type(obj).__mro__ for n in getattr(c, "__slots__", ())]
+        for n in dict.fromkeys(names):
+            if n not in skip and hasattr(obj, n):
+                arrays(getattr(obj, n), f"{path}.{n}", seen, out, skip)
+    return out
+
+
+def digests(obj, path="problem", skip=CACHES) -> dict:
+    """path -> a digest of the array's dtype, shape and bytes (:func:`arrays`)."""
+    return {k: hashlib.sha256(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).tobytes()).hexdigest()
+            for k, a in arrays(obj, path, skip=skip).items()}
+
+
+def changed(before: dict, after: dict) -> list:
+    """The arrays of ``before`` that ``after`` holds with other bits (a cache filled on first use is no change)."""
+    return sorted(k for k in before if after.get(k) != before[k])

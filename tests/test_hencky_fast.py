@@ -272,7 +272,7 @@ def test_gmres_on_an_earlier_factor_is_the_direct_solve(monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
         solver.solve()
-    x, closed = solver.cache.own["newton_answer"]
+    x, closed, *_ = solver.cache.own["newton_answer"]      # (its load key and forces after them)
     problem = solver.problem
     op, G, _ = mixed_system(problem)
     tangent = nonlinear.TangentSolver(op.pattern(), G, krylov=80)          # a budget of 80 iterations

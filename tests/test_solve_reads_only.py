@@ -6,13 +6,12 @@ Found: the read-back's ``abs(block.jump)`` sorted a non-canonical jump operator 
 problem's sparse matrices are now canonical and read-only from construction (:func:`cvxcontact.errors.frozen`).
 """
 
-import hashlib
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 import cvxcontact as cc
+from conftest import changed, digests
 from cvxcontact.errors import frozen, frozen_pattern, locked
 from friction_scenes import pair2d
 from hencky_scenes import indented
@@ -30,52 +29,6 @@ CASES = {
     "2D Hencky indented (its strain matrix A sorted in place before)": (
         lambda: indented(cc.materials.hencky(70e9, 0.3, 1e8, 0.1), nx=8, ny=3), {}),
 }
-CACHES = {"_shared", "products"}        # what a problem builds on first use (its shared store, a block's last K z)
-
-
-def arrays(obj, path="problem", seen=None, out=None) -> dict:
-    """Every numpy array reachable from ``obj`` through the package's objects, containers and sparse matrices,
-    by path (the caches of :data:`CACHES` left out)."""
-    seen = set() if seen is None else seen
-    out = {} if out is None else out
-    if id(obj) in seen or obj is None or isinstance(obj, (str, bytes, int, float, complex)):
-        return out
-    seen.add(id(obj))
-    if isinstance(obj, np.ndarray):
-        if obj.dtype != object:
-            out[path] = obj
-        else:
-            for i, x in enumerate(obj.ravel()):
-                arrays(x, f"{path}[{i}]", seen, out)
-    elif sp.issparse(obj):
-        out.update({f"{path}.{a}": getattr(obj, a) for a in ("data", "indices", "indptr", "row", "col", "offsets")
-                    if isinstance(getattr(obj, a, None), np.ndarray)})
-    elif isinstance(obj, (list, tuple)):
-        for i, x in enumerate(obj):
-            arrays(x, f"{path}[{i}]", seen, out)
-    elif isinstance(obj, dict):
-        for k, x in obj.items():
-            arrays(x, f"{path}[{k!r}]", seen, out)
-    elif type(obj).__module__.startswith("cvxcontact"):
-        names = list(getattr(obj, "__dict__", {}))
-        names += [n for c in type(obj).__mro__ for n in getattr(c, "__slots__", ())]
-        for n in dict.fromkeys(names):
-            if n not in CACHES and hasattr(obj, n):
-                arrays(getattr(obj, n), f"{path}.{n}", seen, out)
-    return out
-
-
-def digests(obj) -> dict:
-    """path -> a digest of the array's dtype, shape and bytes."""
-    return {k: hashlib.sha256(str((a.dtype, a.shape)).encode() + np.ascontiguousarray(a).tobytes()).hexdigest()
-            for k, a in arrays(obj).items()}
-
-
-def changed(before: dict, after: dict) -> list:
-    """The arrays of ``before`` that ``after`` holds with other bits (a cache filled on first use is no change)."""
-    return sorted(k for k in before if after.get(k) != before[k])
-
-
 @pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
 def solved(request):
     """(problem, its digests before, after a first and after a second cold solve, the two answers)."""

@@ -30,9 +30,12 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   with the bare V-cycle of one hierarchy and 59 with two set-ups (a rebuild when the stale hierarchy had cost as
   much as a new one, the former rule); a PZT-5A box on aluminium (2.9e4): 57 GMRES iterations and one set-up
   against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous
-  answer. A set still changing is solved loosely: a step tightens its solve through :data:`STEP_RTOLS` to
-  ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and a loose solve whose set
-  fails its signs stops as soon as two consecutive iterates imply the same next set (:data:`SETTLE`).
+  answer, but a cold one (the first, ``warm_start=False``, or where the previous set led nowhere), which starts from
+  zero: the same load solved again is answered with the same bits (warm: its Krylov solves start at the answer and
+  stop there at once; cold: as a fresh solver). A set still changing is solved loosely: a step tightens its solve
+  through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and
+  a loose solve whose set fails its signs stops as soon as two consecutive iterates imply the same next set
+  (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
@@ -606,7 +609,8 @@ def signorini(problem, cache, settings, timings):
     free = ~problem.held_rows
     warm = settings.warm_start and cache.active is not None
     out = kc.solve(rhs, problem.g, cache.active & free) if warm else None
-    if out is None:
+    if out is None:                              # a cold solve: from zero, not from the last answer, whose
+        kc.x = None                              # rounding the answer would carry (a fresh solver's bits)
         start = cheap_start(problem)
         out = kc.solve(rhs, problem.g, start if start is not None else free)
         warm = False

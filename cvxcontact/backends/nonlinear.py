@@ -36,7 +36,7 @@ from ..errors import SolverError
 from .finish import Declined, solve_sparse_compliance
 from .interface import release_held
 from .mixed import mixed_system, unstacked
-from .result import Finish, RawResult, Route
+from .result import Finish, RawResult, Route, load_key
 
 __all__ = ["CHEAP", "FAR", "FORCING", "KRYLOV", "LINE", "LOOSE", "NEAR", "ROUGH", "SECANT", "SINGLE", "SINGLE_REFINE",
            "TangentSolver", "compliance", "newton"]
@@ -202,6 +202,13 @@ class TangentSolver:
         self.single, self.doubled = SINGLE and self.kind == "pardiso", False
         self.factorizations = self.analyses = self.refinements = self.solves = self.iterations = 0
         self.unrefined = 0
+
+    def restart(self) -> None:
+        """Forget the last step's factor and answer (GMRES's preconditioner and start) before a solve from the rest
+        state: its steps are then a fresh solver's, bit for bit (the analysis and the pattern's places are kept:
+        exact)."""
+        self._last = self._z = None
+        self._failed = False
 
     def _at(self, rows, cols):
         """The places of the entries (rows, cols) in the data of the fixed pattern (CSC, sorted)."""
@@ -417,7 +424,8 @@ def newton(problem, cache, settings, timings) -> RawResult:
     from .signorini import full
 
     m = len(problem.g)
-    start = cache.active if cache.active is not None else np.asarray(problem.g) < 0
+    warm = settings.warm_start and cache.active is not None       # (warm_start=False: every load from the rest)
+    start = cache.active if warm else np.asarray(problem.g) < 0
     raw = _steps(problem, cache, settings, timings, RowLaws.uniform(Signorini(), m), np.zeros(m), start)
     if raw is None:
         log.info("the Newton steps on the nonlinear mixed system did not settle (a singular step, a revisited active "
@@ -459,14 +467,19 @@ def _steps(problem, cache, settings, timings, law, weights, start):
         if np.any(np.asarray(law.stiffness) > 0):              # the law's G^T D G beside the tangent
             pattern = pattern + abs(G).T @ abs(G)
         solver = cache.own["newton"] = TangentSolver(pattern, G, settings.factorization)
-    secant = SECANT
-    if settings.warm_start and last is not None:
-        x0, start = last                                     # the previous answer of this geometry
-        secant = 0                                           # (near the answer: Newton's tangent)
-    else:                                                    # the elastic predictor: the rest state
-        x0 = np.zeros(G.shape[1])
-    out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
-                                  solve=solver, early=EARLY, armijo=ARMIJO, line=LINE, secant=secant)
+    secant, key = SECANT, load_key(problem)
+    if settings.warm_start and last is not None and last[2] == key:
+        x, active, _, y, z = (np.array(a) for a in last)     # this load's answer: its bits, no step (a step
+        out = (x, y, z, active, 0, [])                       # from it would move it by its rounding)
+    else:
+        if settings.warm_start and last is not None:
+            x0, start = last[:2]                             # the previous answer of this geometry (another
+            secant = 0                                       # load; near the answer: Newton's tangent)
+        else:                                                # the elastic predictor: the rest state, from what a
+            x0 = np.zeros(G.shape[1])                        # fresh solver holds (no step's factor or answer)
+            solver.restart()
+        out = solve_sparse_compliance(op, G, problem.g, weights, law, x0, None if start is None else start & free,
+                                      solve=solver, early=EARLY, armijo=ARMIJO, line=LINE, secant=secant)
     timings["newton"] = time.perf_counter() - t0
     if isinstance(out, Declined):
         cache.own.pop("newton_answer", None)
@@ -474,7 +487,9 @@ def _steps(problem, cache, settings, timings, law, weights, start):
     x, y, z, active, steps, history = out
     log.info("Newton on (26), no interior point: %d steps (%d factorisations, %d GMRES iterations in all), relative "
              "residuals %s", steps, solver.factorizations, solver.iterations, ", ".join(f"{h:.1e}" for h in history))
-    cache.active, cache.own["newton_answer"] = active, (x, active)
+    cache.active = active
+    cache.own["newton_answer"] = (np.array(x), np.array(active), key, np.array(y), np.array(z))   # (copies: the
+    #                                                                     answer's fields view x)
     u, phi, _ = unstacked(problem, x, widths)
     return RawResult(u=u, phi=phi, y=y, z=z, active=active, polished=True, iterations=steps, method="newton",
                      route=Route.NEWTON_DIRECT, finish=Finish.NEWTON_BULK, factorization=solver.kind)

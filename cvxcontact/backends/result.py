@@ -7,15 +7,17 @@ serialise to JSON as those strings; :class:`~cvxcontact.solution.info.SolveInfo`
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import astuple, dataclass, field
 from enum import StrEnum
 
 import numpy as np
 
 from .finish.declined import Declined
 
-__all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache", "INTERIOR_POINT_KEPT", "declined_words"]
+__all__ = ["Status", "Route", "Finish", "RawResult", "Settings", "Cache", "INTERIOR_POINT_KEPT", "declined_words",
+           "load_key"]
 
 
 class Status(StrEnum):
@@ -221,3 +223,28 @@ class Cache:
             self.clear()
             self.key = key
         return self
+
+
+def load_key(problem) -> bytes:
+    """A digest of what a load case sets in a prepared geometry's scaled problem: every block's loads (f, q) and
+    the public arrays of its bulk energy (a non-quadratic one reads the prescribed displacements there: e0, d), the
+    gaps, the force-controlled obstacles' rows and forces and the units. Two problems of one geometry (one contact-row key,
+    :meth:`Cache.matching`) with the same key pose the same question bit for bit: what lets a route that starts a
+    new load from the previous answer (not exact: the answer then carries that start's rounding) answer a repeated
+    load with the bits it gave it (docs/explanation/known-behaviour.md, "Same question, same bits")."""
+    digest = hashlib.sha256(repr(astuple(problem.units)).encode())
+
+    def add(a):
+        a = np.ascontiguousarray(a)
+        digest.update(repr((a.dtype.str, a.shape)).encode())
+        digest.update(a.tobytes())
+
+    for b in problem.blocks:
+        bulk = sorted(getattr(b.bulk, "__dict__", {}).items())          # (its own arrays; not what it caches)
+        for a in (b.f, b.q, *(v for k, v in bulk if not k.startswith("_") and isinstance(v, np.ndarray))):
+            add(np.zeros(0) if a is None else a)
+    add(problem.g)
+    for R, F in problem.translations:
+        add(R.toarray() if hasattr(R, "toarray") else R)
+        add(np.asarray(F, dtype=float))
+    return digest.digest()

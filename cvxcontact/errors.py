@@ -83,6 +83,30 @@ def user_stacklevel() -> int:
     return level
 
 
+def reissue(caught) -> None:
+    """Issue again warnings recorded inside the package (``warnings.catch_warnings(record=True)``), each at the
+    file and line it named and under the module that line belongs to, so that the caller's filters apply to it as
+    to a warning issued there: ``filterwarnings(module=...)`` matches a module's name (``warn_explicit`` without
+    ``module`` would match the file's path without ".py" instead), and the once-per-place registry is the
+    module's. The module is read from the frame of the call stack running that file (the caller's line, named by
+    :func:`user_stacklevel`), else from the imported module of that file, else from the file's name."""
+    import warnings
+
+    for w in caught:
+        frame, where = sys._getframe(1), None
+        while frame is not None and where is None:
+            where = frame.f_globals if frame.f_code.co_filename == w.filename else None
+            frame = frame.f_back
+        if where is None:
+            where = next((vars(m) for m in list(sys.modules.values())
+                          if getattr(m, "__file__", None) == w.filename), None)
+        if where is None:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, module=where.get("__name__"),
+                                   registry=where.setdefault("__warningregistry__", {}), module_globals=where)
+
+
 class SweepResultsError(CvxContactError, ValueError):
     """A folder that is not a sweep's output, an unknown case id, or a case without a complete result (not
     computed, failed, or its files damaged: the message names the file and, for a record of the wrong shape,

@@ -6,6 +6,7 @@ warnings and those of its solves): each reaches the warning through a different 
 cvxcontact/solve.py or cvxcontact/model/__init__.py from every entry point."""
 
 import ast
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -131,13 +132,18 @@ def test_the_pardiso_fallback_names_the_calling_line(entry, monkeypatch):
 
 def _fixed_levels(source):
     """Line numbers of the ``warnings.warn`` calls in ``source`` whose ``stacklevel`` is not ``user_stacklevel()``
-    (a fixed level, or none: the package's own line)."""
+    (a fixed level, or none: the package's own line), and of the ``warnings.warn_explicit`` calls outside
+    ``errors.reissue`` (a place and module of their own)."""
+    tree = ast.parse(source)
+    skip = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and f.name == "reissue"
+            for n in ast.walk(f)}
     out = []
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "warn" \
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and id(node) not in skip \
                 and isinstance(node.func.value, ast.Name) and node.func.value.id == "warnings":
             level = next((k.value for k in node.keywords if k.arg == "stacklevel"), None)
-            if not (isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
+            if node.func.attr == "warn_explicit" or node.func.attr == "warn" and not (
+                    isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
                 out.append(node.lineno)
     return out
 
@@ -153,4 +159,24 @@ def test_every_warning_of_the_package_takes_the_user_stacklevel():
 
 def test_the_stacklevel_check_sees_a_fixed_level():
     assert _fixed_levels("import warnings\nwarnings.warn('x', UserWarning, stacklevel=2)\nwarnings.warn('y')\n"
-                         "warnings.warn('z', stacklevel=user_stacklevel())\n") == [2, 3]
+                         "warnings.warn('z', stacklevel=user_stacklevel())\n"
+                         "warnings.warn_explicit('w', UserWarning, 'f.py', 1)\n"
+                         "def reissue(c):\n    warnings.warn_explicit('v', UserWarning, 'f.py', 1)\n") == [2, 3, 5]
+
+
+@pytest.mark.parametrize("entry", [*SOLVERS, "cc.adapt"])
+def test_a_filter_by_the_callers_module_applies_from_every_entry_point(entry):
+    """A caller's ``filterwarnings(module=...)`` matches the module of the line the warning names, from every entry
+    point; cc.adapt re-issues its solves' warnings (recorded) and once gave them the module "/path/to/file" (the
+    file's name: ``warn_explicit`` without ``module``), which no filter by the caller's module matched."""
+    call, module = ENTRIES[entry], re.escape(__name__) + "$"
+    for action, other, shown in (("ignore", module, 0), ("ignore", "elsewhere$", 1), ("error", module, "raised")):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            warnings.filterwarnings(action, category=cc.ResolutionWarning, module=other)
+            if shown == "raised":
+                with pytest.raises(cc.ResolutionWarning):
+                    call(_coarse, {})
+                continue
+            call(_coarse, {})
+        assert len(_where(caught, cc.ResolutionWarning)) == shown, (action, other)

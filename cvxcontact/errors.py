@@ -7,8 +7,8 @@ built-in exception a caller would naturally catch (``ValueError`` for bad data,
 
 Below the errors, the immutability of built descriptions: :class:`Frozen` (objects),
 :class:`FrozenTuple` and :class:`FrozenMap` (their containers), each refusing an edit with a
-:class:`FrozenError` that names what to build instead; and the package's read-only arrays, in one place, under
-three contracts: :func:`locked` (a dense copy whose values are read-only for good), :func:`frozen` (a sparse
+:class:`FrozenError` that names what to build instead; and the descriptions' and problems' read-only arrays,
+under three contracts: :func:`locked` (a dense copy whose values are read-only for good), :func:`frozen` (a sparse
 matrix made canonical, its values and pattern read-only, in place) and :func:`frozen_pattern` (a sparse matrix's
 pattern read-only in place, its values left writeable).
 """

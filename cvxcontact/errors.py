@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:                       # annotations only: ``cvxcontact --help`` must not load numpy (locked)
     import numpy as np
     import scipy.sparse as sp
+    from numpy.typing import ArrayLike, DTypeLike
 
 
 class CvxContactError(Exception):
@@ -157,7 +158,7 @@ class Frozen:
         self.__dict__.update({k: _relocked(v) for k, v in state.items()})
 
 
-def locked(a: np.ndarray, dtype=None) -> np.ndarray:
+def locked(a: ArrayLike, dtype: DTypeLike | None = None) -> np.ndarray:
     """A copy of ``a`` (C order, same shape; ``dtype``: converted to it, None: ``a``'s) read-only for good: its
     memory is a ``bytes`` object, so no ``setflags(write=True)`` (of it or of its ``base``) makes it writeable
     again, as it would an array that owns its data. A description edited in place would leave what was computed

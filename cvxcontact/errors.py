@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:                       # annotations only: ``cvxcontact --help`` must not load numpy (locked)
@@ -84,23 +85,21 @@ def user_stacklevel() -> int:
     return level
 
 
-def reissue(caught) -> None:
+def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
     """Issue again warnings recorded inside the package (``warnings.catch_warnings(record=True)``), each at the
     file and line it named and under the module that line belongs to, so that the caller's filters apply to it as
     to a warning issued there: ``filterwarnings(module=...)`` matches a module's name (``warn_explicit`` without
     ``module`` would match the file's path without ".py" instead), and the once-per-place registry is the
     module's. The module is read from the frame of the call stack running that file (the caller's line, named by
     :func:`user_stacklevel`), else from the imported module of that file, else from the file's name."""
-    import warnings
-
     for w in caught:
         frame, where = sys._getframe(1), None
         while frame is not None and where is None:
             where = frame.f_globals if frame.f_code.co_filename == w.filename else None
             frame = frame.f_back
-        if where is None:
-            where = next((vars(m) for m in list(sys.modules.values())
-                          if getattr(m, "__file__", None) == w.filename), None)
+        if where is None:                   # a module's own dict: no module __getattr__ (a lazy import) is run
+            where = next((d for d in (getattr(m, "__dict__", None) for m in list(sys.modules.values()))
+                          if isinstance(d, dict) and d.get("__file__") == w.filename), None)
         if where is None:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         else:

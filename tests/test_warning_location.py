@@ -18,7 +18,7 @@ from obstacle_scenes import half_model
 
 import cvxcontact as cc
 from cvxcontact.backends import condensed
-from cvxcontact.errors import SolverError
+from cvxcontact.errors import SolverError, reissue
 
 
 def _here():
@@ -180,3 +180,31 @@ def test_a_filter_by_the_callers_module_applies_from_every_entry_point(entry):
                 continue
             call(_coarse, {})
         assert len(_where(caught, cc.ResolutionWarning)) == shown, (action, other)
+
+
+def test_reissue_names_the_module_of_a_line_off_the_stack(tmp_path, monkeypatch):
+    """A recorded warning whose line is no longer running (a library's) is issued again under that file's
+    imported module; a file no module holds keeps warn_explicit's own module, the file's path without ".py"."""
+    (tmp_path / "rtidy3_library.py").write_text("import warnings\n\ndef f():\n    warnings.warn('from a library')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    library = __import__("rtidy3_library")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        library.f()
+    (w,) = caught
+    assert (w.filename, w.lineno) == (library.__file__, 4)
+    for module, raised in (("rtidy3_library$", True), (re.escape(__name__) + "$", False)):
+        with warnings.catch_warnings(record=True) as again:
+            warnings.simplefilter("always")
+            warnings.filterwarnings("error", module=module)
+            if raised:
+                with pytest.raises(UserWarning, match="from a library"):
+                    reissue(caught)
+            else:
+                reissue(caught)
+                assert [(x.filename, x.lineno) for x in again] == [(library.__file__, 4)]
+    w.filename = str(tmp_path / "nowhere.py")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", module=re.escape(str(tmp_path / "nowhere")) + "$")
+        with pytest.raises(UserWarning, match="from a library"):
+            reissue(caught)

@@ -132,20 +132,24 @@ def test_the_pardiso_fallback_names_the_calling_line(entry, monkeypatch):
 
 def _fixed_levels(source):
     """Line numbers of the ``warnings.warn`` calls in ``source`` whose ``stacklevel`` is not ``user_stacklevel()``
-    (a fixed level, or none: the package's own line), and of the ``warnings.warn_explicit`` calls outside
-    ``errors.reissue`` (a place and module of their own)."""
+    (a fixed level, or none: the package's own line), of the ``warnings.warn_explicit`` calls outside
+    ``errors.reissue`` (a place and module of their own), and of the imports that would hide a call from this check
+    (``from warnings import warn``, ``import warnings as w``)."""
     tree = ast.parse(source)
     skip = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and f.name == "reissue"
             for n in ast.walk(f)}
     out = []
     for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module == "warnings" \
+                or isinstance(node, ast.Import) and any(a.name == "warnings" and a.asname for a in node.names):
+            out.append(node.lineno)
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and id(node) not in skip \
                 and isinstance(node.func.value, ast.Name) and node.func.value.id == "warnings":
             level = next((k.value for k in node.keywords if k.arg == "stacklevel"), None)
             if node.func.attr == "warn_explicit" or node.func.attr == "warn" and not (
                     isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
                 out.append(node.lineno)
-    return out
+    return sorted(out)
 
 
 def test_every_warning_of_the_package_takes_the_user_stacklevel():
@@ -161,7 +165,8 @@ def test_the_stacklevel_check_sees_a_fixed_level():
     assert _fixed_levels("import warnings\nwarnings.warn('x', UserWarning, stacklevel=2)\nwarnings.warn('y')\n"
                          "warnings.warn('z', stacklevel=user_stacklevel())\n"
                          "warnings.warn_explicit('w', UserWarning, 'f.py', 1)\n"
-                         "def reissue(c):\n    warnings.warn_explicit('v', UserWarning, 'f.py', 1)\n") == [2, 3, 5]
+                         "def reissue(c):\n    warnings.warn_explicit('v', UserWarning, 'f.py', 1)\n"
+                         "from warnings import warn\nimport warnings as w\n") == [2, 3, 5, 8, 9]
 
 
 @pytest.mark.parametrize("entry", [*SOLVERS, "cc.adapt"])

@@ -55,6 +55,7 @@ from .errors import (
     ResolutionWarning,
     SceneError,
     UnsupportedError,
+    reissue,
     user_stacklevel,
 )
 from .fem.space import needs_matching_faces, space
@@ -367,9 +368,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         cpu_s = time.process_time() - cpu
         est = sol.estimate
         dropped = (ResolutionWarning, ResidualWarning) if exact and not finished else ResolutionWarning
-        for w in caught:                      # an interior point's answer (exact_steps=False) is not exact: said
-            if stopped or not issubclass(w.category, dropped):
-                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        # an interior point's answer (exact_steps=False) is not exact: said
+        reissue([w for w in caught if stopped or not issubclass(w.category, dropped)])
         peak = peak_pressure(sol)
         before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
@@ -386,7 +386,8 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
             if stopped == "tol" and relative > tol:
                 warnings.warn(f"adapt: the interior point's relative estimate reached tol = {tol:g} on the last mesh "
                               f"({row.unknowns} unknowns), its exact answer's reads {relative:.3g}: call again with "
-                              "exact_steps=True or a slightly smaller tol", ResolutionWarning, stacklevel=user_stacklevel())
+                              "exact_steps=True or a slightly smaller tol", ResolutionWarning,
+                              stacklevel=user_stacklevel())
             if tol is not None and stopped != "tol":
                 best = min(history, key=lambda r: r.relative)
                 warnings.warn(f"adapt: the relative estimate {row.relative:.3g} of the last mesh ({row.unknowns} "

@@ -7,8 +7,8 @@ built-in exception a caller would naturally catch (``ValueError`` for bad data,
 
 Below the errors, the immutability of built descriptions: :class:`Frozen` (objects),
 :class:`FrozenTuple` and :class:`FrozenMap` (their containers), each refusing an edit with a
-:class:`FrozenError` that names what to build instead; and the package's read-only arrays, in one place, under
-three contracts: :func:`locked` (a dense copy whose values are read-only for good), :func:`frozen` (a sparse
+:class:`FrozenError` that names what to build instead; and the descriptions' and problems' read-only arrays,
+under three contracts: :func:`locked` (a dense copy whose values are read-only for good), :func:`frozen` (a sparse
 matrix made canonical, its values and pattern read-only, in place) and :func:`frozen_pattern` (a sparse matrix's
 pattern read-only in place, its values left writeable).
 """
@@ -17,12 +17,14 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Mapping
+import warnings
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:                       # annotations only: ``cvxcontact --help`` must not load numpy (locked)
     import numpy as np
     import scipy.sparse as sp
+    from numpy.typing import ArrayLike, DTypeLike
 
 
 class CvxContactError(Exception):
@@ -83,6 +85,28 @@ def user_stacklevel() -> int:
     return level
 
 
+def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
+    """Issue again warnings recorded inside the package (``warnings.catch_warnings(record=True)``), each at the
+    file and line it named and under the module that line belongs to, so that the caller's filters apply to it as
+    to a warning issued there: ``filterwarnings(module=...)`` matches a module's name (``warn_explicit`` without
+    ``module`` would match the file's path without ".py" instead), and the once-per-place registry is the
+    module's. The module is read from the frame of the call stack running that file (the caller's line, named by
+    :func:`user_stacklevel`), else from the imported module of that file, else from the file's name."""
+    for w in caught:
+        frame, where = sys._getframe(1), None
+        while frame is not None and where is None:
+            where = frame.f_globals if frame.f_code.co_filename == w.filename else None
+            frame = frame.f_back
+        if where is None:                   # a module's own dict: no module __getattr__ (a lazy import) is run
+            where = next((d for d in (getattr(m, "__dict__", None) for m in list(sys.modules.values()))
+                          if isinstance(d, dict) and d.get("__file__") == w.filename), None)
+        if where is None:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, module=where.get("__name__"),
+                                   registry=where.setdefault("__warningregistry__", {}), module_globals=where)
+
+
 class SweepResultsError(CvxContactError, ValueError):
     """A folder that is not a sweep's output, an unknown case id, or a case without a complete result (not
     computed, failed, or its files damaged: the message names the file and, for a record of the wrong shape,
@@ -133,7 +157,7 @@ class Frozen:
         self.__dict__.update({k: _relocked(v) for k, v in state.items()})
 
 
-def locked(a: np.ndarray, dtype=None) -> np.ndarray:
+def locked(a: ArrayLike, dtype: DTypeLike | None = None) -> np.ndarray:
     """A copy of ``a`` (C order, same shape; ``dtype``: converted to it, None: ``a``'s) read-only for good: its
     memory is a ``bytes`` object, so no ``setflags(write=True)`` (of it or of its ``base``) makes it writeable
     again, as it would an array that owns its data. A description edited in place would leave what was computed

@@ -37,6 +37,7 @@ from .errors import SceneError, UnsupportedError
 from .physics.pairs import Rigid
 from .physics.scene import Scene
 from .solution.estimate import estimate as residual_estimate
+from .solution.estimate import read_only
 from .solve import ContactSolver, Solution
 
 __all__ = ["ForceEstimate", "force_estimate"]
@@ -130,7 +131,7 @@ def force_estimate(sol: Solution, pair: int = 0, **options) -> ForceEstimate:
     eta_z = [e / delta for e in est_z.indicators]
     active = np.asarray(sol.contacts[pair].active, dtype=bool)
     held = float((active & np.asarray(dual.contacts[pair].active, dtype=bool)).sum() / max(active.sum(), 1))
-    indicators = tuple(_read_only(a * b) for a, b in zip(est_u.indicators, eta_z))
+    indicators = tuple(read_only(a * b) for a, b in zip(est_u.indicators, eta_z))
     return ForceEstimate(absolute=est_u.absolute * est_z.absolute / delta,
                          force=float(np.sum(sol.contacts[pair].force)), indicators=indicators,
                          primal=est_u.absolute, dual=est_z.absolute / delta, pair=int(pair), held=held)
@@ -177,9 +178,3 @@ def _plane(pair) -> Rigid:
 def _step(x, active, inside, outside):
     """g(s): ``inside`` at the merged nodes ``x`` marked ``active`` (and between two such), ``outside`` elsewhere."""
     return lambda s: np.where(np.interp(s, x, active) > 0.5, inside, outside)
-
-
-def _read_only(a):
-    a = np.asarray(a, dtype=float)
-    a.setflags(write=False)
-    return a

@@ -6,6 +6,7 @@ warnings and those of its solves): each reaches the warning through a different 
 cvxcontact/solve.py or cvxcontact/model/__init__.py from every entry point."""
 
 import ast
+import re
 import sys
 import warnings
 from pathlib import Path
@@ -17,7 +18,7 @@ from obstacle_scenes import half_model
 
 import cvxcontact as cc
 from cvxcontact.backends import condensed
-from cvxcontact.errors import SolverError
+from cvxcontact.errors import SolverError, reissue
 
 
 def _here():
@@ -131,15 +132,24 @@ def test_the_pardiso_fallback_names_the_calling_line(entry, monkeypatch):
 
 def _fixed_levels(source):
     """Line numbers of the ``warnings.warn`` calls in ``source`` whose ``stacklevel`` is not ``user_stacklevel()``
-    (a fixed level, or none: the package's own line)."""
+    (a fixed level, or none: the package's own line), of the ``warnings.warn_explicit`` calls outside
+    ``errors.reissue`` (a place and module of their own), and of the imports that would hide a call from this check
+    (``from warnings import warn``, ``import warnings as w``)."""
+    tree = ast.parse(source)
+    skip = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and f.name == "reissue"
+            for n in ast.walk(f)}
     out = []
-    for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "warn" \
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module == "warnings" \
+                or isinstance(node, ast.Import) and any(a.name == "warnings" and a.asname for a in node.names):
+            out.append(node.lineno)
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and id(node) not in skip \
                 and isinstance(node.func.value, ast.Name) and node.func.value.id == "warnings":
             level = next((k.value for k in node.keywords if k.arg == "stacklevel"), None)
-            if not (isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
+            if node.func.attr == "warn_explicit" or node.func.attr == "warn" and not (
+                    isinstance(level, ast.Call) and getattr(level.func, "id", None) == "user_stacklevel"):
                 out.append(node.lineno)
-    return out
+    return sorted(out)
 
 
 def test_every_warning_of_the_package_takes_the_user_stacklevel():
@@ -153,4 +163,53 @@ def test_every_warning_of_the_package_takes_the_user_stacklevel():
 
 def test_the_stacklevel_check_sees_a_fixed_level():
     assert _fixed_levels("import warnings\nwarnings.warn('x', UserWarning, stacklevel=2)\nwarnings.warn('y')\n"
-                         "warnings.warn('z', stacklevel=user_stacklevel())\n") == [2, 3]
+                         "warnings.warn('z', stacklevel=user_stacklevel())\n"
+                         "warnings.warn_explicit('w', UserWarning, 'f.py', 1)\n"
+                         "def reissue(c):\n    warnings.warn_explicit('v', UserWarning, 'f.py', 1)\n"
+                         "from warnings import warn\nimport warnings as w\n") == [2, 3, 5, 8, 9]
+
+
+@pytest.mark.parametrize("entry", [*SOLVERS, "cc.adapt"])
+def test_a_filter_by_the_callers_module_applies_from_every_entry_point(entry):
+    """A caller's ``filterwarnings(module=...)`` matches the module of the line the warning names, from every entry
+    point; cc.adapt re-issues its solves' warnings (recorded) and once gave them the module "/path/to/file" (the
+    file's name: ``warn_explicit`` without ``module``), which no filter by the caller's module matched."""
+    call, module = ENTRIES[entry], re.escape(__name__) + "$"
+    for action, other, shown in (("ignore", module, 0), ("ignore", "elsewhere$", 1), ("error", module, "raised")):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            warnings.filterwarnings(action, category=cc.ResolutionWarning, module=other)
+            if shown == "raised":
+                with pytest.raises(cc.ResolutionWarning):
+                    call(_coarse, {})
+                continue
+            call(_coarse, {})
+        assert len(_where(caught, cc.ResolutionWarning)) == shown, (action, other)
+
+
+def test_reissue_names_the_module_of_a_line_off_the_stack(tmp_path, monkeypatch):
+    """A recorded warning whose line is no longer running (a library's) is issued again under that file's
+    imported module; a file no module holds keeps warn_explicit's own module, the file's path without ".py"."""
+    (tmp_path / "rtidy3_library.py").write_text("import warnings\n\ndef f():\n    warnings.warn('from a library')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    library = __import__("rtidy3_library")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        library.f()
+    (w,) = caught
+    assert (w.filename, w.lineno) == (library.__file__, 4)
+    for module, raised in (("rtidy3_library$", True), (re.escape(__name__) + "$", False)):
+        with warnings.catch_warnings(record=True) as again:
+            warnings.simplefilter("always")
+            warnings.filterwarnings("error", module=module)
+            if raised:
+                with pytest.raises(UserWarning, match="from a library"):
+                    reissue(caught)
+            else:
+                reissue(caught)
+                assert [(x.filename, x.lineno) for x in again] == [(library.__file__, 4)]
+    w.filename = str(tmp_path / "nowhere.py")
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", module=re.escape(str(tmp_path / "nowhere")) + "$")
+        with pytest.raises(UserWarning, match="from a library"):
+            reissue(caught)

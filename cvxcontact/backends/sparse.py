@@ -75,7 +75,7 @@ from .condensed import quasi_definite
 from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
 from .elimination import factorize, ordering
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
-from ..errors import SolverError
+from ..errors import SolverError, frozen_pattern
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
@@ -180,8 +180,7 @@ class SparseContact:
             raise SolverError("duplicate entries in the sparse mixed system's pattern (a contact row coupling a "
                               "dof twice); use method='condensed' or 'full'")
         idx = order.data.astype(np.int64) - 1
-        self._indices, self._indptr = order.indices, order.indptr
-        self._indices.flags.writeable = self._indptr.flags.writeable = False      # shared by every K(A) (matrix)
+        self._indices, self._indptr = frozen_pattern(order).indices, order.indptr      # shared by every K(A)
         self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
         self._abs = np.abs(self._vals)
         self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)

@@ -444,18 +444,19 @@ def _open(obj, lib, n, threads):
 class PardisoFactorization(Factorization):
     """Intel oneMKL PARDISO, real symmetric indefinite, with the Gamma dofs as its Schur block (module
     docstring). Raises :class:`SolverError` on any PARDISO error and on perturbed pivots (iparm[13] > 0: the
-    factors would then be of a nearby matrix, and Sigma wrong)."""
+    factors would then be of a nearby matrix, and Sigma wrong). ``upper``: S is given as what PARDISO reads, its upper
+    triangle in CSR, sorted, every diagonal entry stored (the sparse route's coarse start, coarse.bordered_upper)."""
 
     name = "pardiso"
 
-    def __init__(self, S, gamma, threads=None):
+    def __init__(self, S, gamma, threads=None, upper: bool = False):
         lib = _load()
         if lib is None:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
         n, m = S.shape[0], len(gamma)
         if m == 0 or m == n:
             raise SolverError("the pardiso adapter needs at least one interior and one contact dof")
-        U = diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
+        U = S if upper else diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
         self._a = np.ascontiguousarray(U.data, dtype=np.float64)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
@@ -594,11 +595,14 @@ class PardisoSymmetric:
         n = K.shape[0]
         if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
             raise SolverError("PardisoSymmetric needs K in CSC with sorted indices")
-        self._pattern = (K.indptr.copy(), K.indices.copy())          # every later K's, entry for entry
+        # every later K's, entry for entry: a read-only pattern that owns its arrays (the sparse route's, shared by
+        # its every K(A)) is kept as it is, and a K on the same arrays is read without comparing them (_values)
+        self._pattern = tuple(a if not a.flags.writeable and a.flags.owndata else a.copy() for a in (K.indptr, K.indices))
         col = np.repeat(np.arange(n), np.diff(K.indptr))             # CSC of a symmetric K = CSR of K:
-        self._upper = K.indices >= col                                # column j's rows >= j = row j's upper part
-        if int(self._upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
+        upper = K.indices >= col                                      # column j's rows >= j = row j's upper part
+        if int(upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
             raise SolverError("PardisoSymmetric needs every diagonal entry of K stored")
+        self._upper = np.flatnonzero(upper)
         counts = np.bincount(col[self._upper], minlength=n)
         self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(counts)]), dtype=np.int32)
         self._ja = np.ascontiguousarray(K.indices[self._upper], dtype=np.int32)
@@ -634,11 +638,15 @@ class PardisoSymmetric:
         otherwise be read in the wrong places: a factor of another matrix)."""
         K = sp.csc_matrix(K)
         indptr, indices = self._pattern
-        same = K.shape == (self.n, self.n) and np.array_equal(K.indptr, indptr) and np.array_equal(K.indices, indices)
+        same = K.shape == (self.n, self.n) and all(a is b or np.array_equal(a, b) for a, b in
+                                                    ((K.indptr, indptr), (K.indices, indices)))
         if not same:
             raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one (the same stored "
                               "entries in the same CSC order are needed; a new PardisoSymmetric for another pattern)")
-        self._a[:] = K.data[self._upper]
+        if self.single:
+            self._a[:] = K.data[self._upper]
+        else:                                                         # (in place; indices all valid: clip is moot)
+            np.take(K.data, self._upper, out=self._a, mode="clip")
 
     def analyse(self, K):
         """The analysis alone (PARDISO's phase 11: ordering, symbolic factorisation, and the scaling and weighted

@@ -72,8 +72,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .condensed import quasi_definite
-from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
+from .coarse import COARSE_HOPS, NEAR_DEPENDENT, bordered_upper, coarse_rows, row_graph, spread  # noqa: F401
 from .elimination import factorize, ordering
+from .pattern import block_diagonal, mixed_pattern
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
@@ -156,7 +157,7 @@ class SparseContact:
         self.factorization = resolve(factorization)      # "superlu" or "pardiso" (analysis once, then numeric)
         self._pardiso = None
         parts = [quasi_definite(b) for b in blocks]
-        A = sp.block_diag([S for S, _ in parts], format="coo")
+        A = block_diagonal([S for S, _ in parts])
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
         self.n = n = A.shape[0]
         self.m = m = E.shape[0]
@@ -165,24 +166,11 @@ class SparseContact:
         G.sum_duplicates()
         self.G = G
         self.A = A.tocsr()
-        self.reach = row_reach(A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
-        Gc = G.tocoo()
+        self.reach = row_reach(self.A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         self.w = row_weights(blocks, E)
-        # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `row`, 2 = its diagonal
-        rows = np.concatenate([A.row, n + Gc.row, Gc.col, n + np.arange(m)])
-        cols = np.concatenate([A.col, Gc.col, n + Gc.row, n + np.arange(m)])
-        vals = np.concatenate([A.data, Gc.data, Gc.data, -np.ones(m)])
-        kind = np.concatenate([np.zeros(A.nnz, np.int8), np.ones(2 * Gc.nnz, np.int8), np.full(m, 2, np.int8)])
-        rid = np.concatenate([np.zeros(A.nnz, np.int64), Gc.row, Gc.row, np.arange(m)])
-        N = n + m
-        order = sp.csc_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(N, N))
-        if order.nnz != len(rows):
-            raise SolverError("duplicate entries in the sparse mixed system's pattern (a contact row coupling a "
-                              "dof twice); use method='condensed' or 'full'")
-        idx = order.data.astype(np.int64) - 1
-        self._indices, self._indptr = order.indices, order.indptr
+        # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `rid`, 2 = its diagonal
+        self._indptr, self._indices, self._vals, self._kind, self._rid = mixed_pattern(A, G)
         self._indices.flags.writeable = self._indptr.flags.writeable = False      # shared by every K(A) (matrix)
-        self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
         self._abs = np.abs(self._vals)
         self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)
         self.F = np.concatenate([F for _, F in parts])
@@ -657,22 +645,24 @@ class SparseContact:
         """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
         neighbour), the coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as
         there."""
-        from .factor import factorize as factorize_schur
+        from .factor import PardisoFactorization, factorize as factorize_schur
 
         C = row_graph(self.G)
         idx = coarse_rows(C, free)
         if len(idx) == 0 or len(idx) == int(free.sum()):
             return None
         Gc = self.G[idx]
-        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr")
         gamma = self.n + np.arange(len(idx))
+        U = bordered_upper(self.A, Gc) if self.factorization == "pardiso" else None   # what PARDISO reads of M
+        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr") if U is None else None
         order = None
         if self.factorization != "pardiso":             # SuperLU: the route's ordering of S's dofs, the rows last
             if self.perm is None:
                 self.perm = ordering(self.matrix(np.ones(self.m, dtype=bool)), self.n + np.arange(self.m))
             order = np.concatenate([self.perm[self.perm < self.n], gamma])
         try:
-            fac = factorize_schur(M, gamma, self.factorization, order=order)
+            fac = factorize_schur(M, gamma, self.factorization, order=order) if U is None else \
+                PardisoFactorization(U, gamma, upper=True)
         except (SolverError, RuntimeError):
             return None
         try:

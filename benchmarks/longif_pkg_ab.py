@@ -34,7 +34,8 @@ from cvxcontact.backends import sparse as after
 warnings.simplefilter("ignore")
 n, reps, rev = int(sys.argv[1]), int(sys.argv[2]), sys.argv[3]
 tmp = Path(tempfile.mkdtemp())
-archive = subprocess.run(["git", "archive", rev, "cvxcontact"], cwd=HERE.parent, check=True, capture_output=True).stdout
+archive = subprocess.run(["git", "archive", rev, "cvxcontact"], cwd=HERE.parent, check=True,
+                         capture_output=True).stdout
 subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
 (tmp / "cvxcontact").rename(tmp / "cvxcontact_base")
 sys.path.insert(0, str(tmp))

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["COARSE_HOPS", "DENSITY_SAMPLE", "NEAR_DEPENDENT", "SEARCH_WORK", "bordered_upper", "coarse_rows", "row_graph",
-           "spread"]
+__all__ = ["COARSE_HOPS", "DENSITY_SAMPLE", "NEAR_DEPENDENT", "SEARCH_WORK", "bordered_upper", "coarse_rows",
+           "row_graph", "spread"]
 
 COARSE_HOPS = 4
 """The coarse rows are a maximal independent set of the rows' graph to this many hops (rows sharing a dof are
@@ -135,7 +135,7 @@ def bordered_upper(A, Gc):
     GT.sum_duplicates()
     at = ends[np.repeat(np.arange(n), np.diff(GT.indptr))]   # row i: A's upper entries, then Gc^T's (cols >= n)
     data = np.concatenate([np.insert(A.data[keep], at, GT.data), np.zeros(c)])
-    data[starts + GT.indptr[:n]] += 0.0         # each row's first upper entry, its diagonal, + 0.0 (a stored zero added)
+    data[starts + GT.indptr[:n]] += 0.0         # each row's first upper entry, its diagonal, + 0.0 (a zero added)
     indices = np.concatenate([np.insert(cols, at, n + GT.indices), n + np.arange(c, dtype=cols.dtype)])
     indptr = np.concatenate([[0], ends + GT.indptr[1:], ends[-1] + GT.nnz + np.arange(1, c + 1)])
     return sp.csr_matrix((data, indices, indptr), shape=(n + c, n + c))

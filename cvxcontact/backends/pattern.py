@@ -6,8 +6,8 @@
 stored in CSC with every contact row's couplings and diagonal present whatever A (an open row's as explicit zeros).
 Assembled column by column from the blocks' own CSC arrays and G's, each column's rows already in order (S's rows,
 then the contact rows coupling to that dof; a contact row's dofs, then its diagonal), so that no sort of the whole
-pattern is needed: the same arrays as a COO assembly converted to CSC (tests/test_sparse_pattern.py), 1.6e6 entries
-on thin_layer(3000) without the sort's permutation and its gathers.
+pattern is needed: the same arrays as a COO assembly converted to CSC (tests/test_sparse_pattern.py), 1.6e6 entries on
+thin_layer(3000) without the sort's permutation and its gathers.
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ def block_diagonal(blocks) -> sp.csc_matrix:
             S = S.copy()
             S.sum_duplicates()
             if S.nnz != nnz:
-                raise SolverError("duplicate entries in the sparse mixed system's pattern (a body's matrix storing an "
-                                  "entry twice); use method='condensed' or 'full'")
+                raise SolverError("duplicate entries in the sparse mixed system's pattern (a body's matrix storing "
+                                  "an entry twice); use method='condensed' or 'full'")
         parts.append(S)
     rows, nnz = np.cumsum([0] + [S.shape[0] for S in parts]), np.cumsum([0] + [S.nnz for S in parts])
     indptr = np.concatenate([S.indptr[:-1] + o for S, o in zip(parts, nnz)] + [nnz[-1:]])
@@ -62,6 +62,7 @@ def mixed_pattern(A, G):
     kind.append(np.insert(np.ones(G.nnz, np.int8), at, np.int8(2)))
     rid.append(np.insert(np.repeat(np.arange(m), np.diff(G.indptr)), at, np.arange(m)))
     index = np.int32 if 2 * (A.nnz + 2 * G.nnz + m) < np.iinfo(np.int32).max else np.int64     # as SciPy picks
-    indptr = np.concatenate([A.indptr.astype(np.int64) + Gt.indptr, A.nnz + G.nnz + G.indptr[1:] + np.arange(1, m + 1)])
+    indptr = np.concatenate([A.indptr.astype(np.int64) + Gt.indptr,
+                             A.nnz + G.nnz + G.indptr[1:] + np.arange(1, m + 1)])
     return indptr.astype(index), np.concatenate(indices).astype(index), np.concatenate(vals), np.concatenate(kind), \
         np.concatenate(rid)

@@ -159,7 +159,7 @@ class SparseContact:
         parts = [quasi_definite(b) for b in blocks]
         A = block_diagonal([S for S, _ in parts])
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
-        self.n = n = A.shape[0]
+        self.n = A.shape[0]
         self.m = m = E.shape[0]
         G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((m, n_phi))]) for b, (_, n_phi)
                        in zip(blocks, self.sizes)]).tocsr()
@@ -317,7 +317,7 @@ class SparseContact:
         from the base; (row, 1): a force -G_a^T on x along an added row) in one block and cache their
         (G Zx, Zy); the first block of at least :data:`CAP_MIN` columns sets the default cap (:meth:`_over_cap`)."""
         n, factor = self.n, self.base[1]
-        cols = np.zeros((n + self.m, len(keys)))
+        cols = np.zeros((n + self.m, len(keys)), order="F")      # as PARDISO reads them (no copy)
         for j, (a, kind) in enumerate(keys):
             if kind == 0:
                 cols[n + a, j] = 1.0                                  # a gap correction on the dropped row
@@ -645,7 +645,8 @@ class SparseContact:
         """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
         neighbour), the coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as
         there."""
-        from .factor import PardisoFactorization, factorize as factorize_schur
+        from .factor import PardisoFactorization
+        from .factor import factorize as factorize_schur
 
         C = row_graph(self.G)
         idx = coarse_rows(C, free)

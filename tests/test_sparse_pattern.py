@@ -13,7 +13,7 @@ from cvxcontact.apps.demo import thin_layer, two_blocks
 from cvxcontact.backends import factor as factor_module
 from cvxcontact.backends.coarse import bordered_upper, coarse_rows, row_graph
 from cvxcontact.backends.condensed import quasi_definite
-from cvxcontact.backends.pattern import block_diagonal, mixed_pattern
+from cvxcontact.backends.pattern import block_diagonal
 from cvxcontact.backends.sparse import SparseContact
 from cvxcontact.errors import SolverError
 
@@ -47,8 +47,8 @@ def test_the_pattern_is_the_coo_assemblys(route):
     order = sp.csc_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(n + m, n + m))
     assert order.nnz == len(rows)
     idx = order.data.astype(np.int64) - 1
-    assert same(sc._indptr, order.indptr) and same(sc._indices, order.indices)
-    assert same(sc._vals, vals[idx]) and same(sc._kind, kind[idx]) and same(sc._rid, rid[idx])
+    assert same(sc.pattern.indptr, order.indptr) and same(sc.pattern.indices, order.indices)
+    assert same(sc.pattern.vals, vals[idx]) and same(sc.pattern.kind, kind[idx]) and same(sc.pattern.rid, rid[idx])
     B = A.tocsr()
     assert same(sc.A.data, B.data) and same(sc.A.indices, B.indices) and same(sc.A.indptr, B.indptr)
     K = sc.matrix(np.arange(m) % 3 > 0)                    # some rows open: their couplings stored as zeros
@@ -100,7 +100,7 @@ def test_pardiso_reads_the_routes_matrices_as_before(route):
     ia = np.concatenate([[0], np.cumsum(np.bincount(col[upper], minlength=n))]).astype(np.int32)
     h = factor_module.PardisoSymmetric(K)
     assert same(h._ia, ia) and same(h._ja, K.indices[upper].astype(np.int32)) and same(h._a, K.data[upper])
-    assert h._pattern[1] is sc._indices                      # the route's own, read-only
+    assert h._pattern[1] is sc.pattern.indices                      # the route's own, read-only
     K2 = sc.matrix(np.arange(sc.m) % 2 == 0)
     h._values(K2, "factor")
     assert same(h._a, K2.data[upper])
@@ -120,3 +120,22 @@ def test_pardiso_reads_the_routes_matrices_as_before(route):
         factor_module.PardisoSymmetric(missing)
     for handle in (h, h2):
         handle.release()
+
+
+def test_the_kept_matrices_are_the_new_ones(route):
+    """MixedPattern.kept (K(A) and |K(A)| on buffers kept between systems, only the changed rows rewritten) against
+    a new matrix for each of a sequence of sets: far apart, one row apart, the same, and after the compliances
+    changed (rebuilt)."""
+    sc, _ = route
+    rng = np.random.default_rng(3)
+    sets = [rng.random(sc.m) < 0.5 for _ in range(3)]
+    sets.insert(2, sets[1].copy())
+    sets[2][0] = ~sets[2][0]
+    soft = np.zeros(sc.m)
+    for k, active in enumerate(sets + [sets[-1], sets[0]]):
+        if k == len(sets) + 1:
+            soft = np.full(sc.m, 1e-6)
+        for absolute in (False, True):
+            kept = sc.pattern.kept(active, soft, absolute)
+            assert same(kept.data, sc.pattern.matrix(active, soft, absolute).data)
+            assert kept.indices is sc.pattern.indices

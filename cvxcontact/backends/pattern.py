@@ -17,7 +17,7 @@ import scipy.sparse as sp
 
 from ..errors import SolverError
 
-__all__ = ["block_diagonal", "mixed_pattern"]
+__all__ = ["MixedPattern", "block_diagonal", "mixed_pattern"]
 
 
 def block_diagonal(blocks) -> sp.csc_matrix:
@@ -66,3 +66,59 @@ def mixed_pattern(A, G):
                              A.nnz + G.nnz + G.indptr[1:] + np.arange(1, m + 1)])
     return indptr.astype(index), np.concatenate(indices).astype(index), np.concatenate(vals), np.concatenate(kind), \
         np.concatenate(rid)
+
+
+class MixedPattern:
+    """K(A)'s one pattern (:func:`mixed_pattern`) and its matrices for any active set: ``indptr``, ``indices``
+    (read-only: every K(A) shares them), ``vals``, ``kind``, ``rid`` as there."""
+
+    def __init__(self, A, G):
+        self.n, self.m = A.shape[0], G.shape[0]
+        self.indptr, self.indices, self.vals, self.kind, self.rid = mixed_pattern(A, G)
+        self.indices.flags.writeable = self.indptr.flags.writeable = False
+        self.abs = np.abs(self.vals)
+        self.couple, self.diag = np.flatnonzero(self.kind == 1), np.flatnonzero(self.kind == 2)   # diag[a]: row a's
+        order = np.argsort(self.rid[self.couple], kind="stable")
+        self._by_row = self.couple[order], np.searchsorted(self.rid[self.couple][order], np.arange(self.m + 1))
+        self._kept = {}                     # absolute -> [active, soft, K] of :meth:`kept`
+
+    def _csc(self, data) -> sp.csc_matrix:
+        N = self.n + self.m                 # without the constructor's check: canonical by construction
+        K = sp.csc_matrix((N, N), dtype=float)
+        K.data, K.indices, K.indptr = data, self.indices, self.indptr
+        K.has_canonical_format = True
+        return K
+
+    def _set(self, data, active, soft, absolute, couple, rows):
+        """The values of the couplings ``couple`` and of the diagonals of ``rows`` for the set ``active``."""
+        vals = self.abs if absolute else self.vals
+        data[couple] = np.where(active[self.rid[couple]], vals[couple], 0.0)
+        soft = np.abs(soft) if absolute else -soft
+        data[self.diag[rows]] = np.where(active[rows], soft[rows], 1.0 if absolute else -1.0)
+
+    def matrix(self, active, soft, absolute: bool = False) -> sp.csc_matrix:
+        """K(A) in CSC for the active set ``active`` (bool, m) and the closed rows' compliances ``soft`` (m), a new
+        one; ``absolute``: |K(A)| (entrywise)."""
+        data = (self.abs if absolute else self.vals).copy()
+        self._set(data, active, soft, absolute, self.couple, slice(None))
+        return self._csc(data)
+
+    def kept(self, active, soft, absolute: bool = False) -> sp.csc_matrix:
+        """:meth:`matrix` on a buffer kept between calls (one for K, one for |K|), only the couplings and diagonals
+        of the rows whose state changed since the last call rewritten: the same values (the same expressions), no
+        copy of the 1.6e6 entries per system on thin_layer(3000). A matrix it returned before is this one,
+        rewritten."""
+        state = self._kept.get(absolute)
+        if state is None or not np.array_equal(state[1], soft):
+            K = self.matrix(active, soft, absolute)
+            self._kept[absolute] = [active.copy(), np.array(soft, dtype=float), K]
+            return K
+        last, _, K = state
+        rows = np.flatnonzero(last != active)
+        if len(rows):
+            pos, ptr = self._by_row
+            counts = ptr[rows + 1] - ptr[rows]
+            couple = pos[np.repeat(ptr[rows] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())]
+            self._set(K.data, active, soft, absolute, couple, rows)
+            last[:] = active
+        return K

@@ -74,7 +74,7 @@ import scipy.sparse as sp
 from .condensed import quasi_definite
 from .coarse import COARSE_HOPS, NEAR_DEPENDENT, bordered_upper, coarse_rows, row_graph, spread  # noqa: F401
 from .elimination import factorize, ordering
-from .pattern import block_diagonal, mixed_pattern
+from .pattern import MixedPattern, block_diagonal
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
 from ..errors import SolverError
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
@@ -169,10 +169,7 @@ class SparseContact:
         self.reach = row_reach(self.A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         self.w = row_weights(blocks, E)
         # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `rid`, 2 = its diagonal
-        self._indptr, self._indices, self._vals, self._kind, self._rid = mixed_pattern(A, G)
-        self._indices.flags.writeable = self._indptr.flags.writeable = False      # shared by every K(A) (matrix)
-        self._abs = np.abs(self._vals)
-        self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)
+        self.pattern = MixedPattern(A, G)
         self.F = np.concatenate([F for _, F in parts])
         self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
@@ -192,20 +189,8 @@ class SparseContact:
 
     def matrix(self, active, absolute: bool = False) -> sp.csc_matrix:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m); ``absolute``: |K(A)|
-        (entrywise). Its index arrays are the pattern's own (read-only: every K(A) shares them), and it is built
-        without the constructor's format check (canonical by construction: sorted, no duplicates)."""
-        active = np.asarray(active, dtype=bool)
-        vals = self._abs if absolute else self._vals
-        data = vals.copy()
-        c, d = self._couple, self._diag
-        data[c] = np.where(active[self._rid[c]], vals[c], 0.0)
-        soft = np.abs(self.soft) if absolute else -self.soft
-        data[d] = np.where(active[self._rid[d]], soft[self._rid[d]], 1.0 if absolute else -1.0)
-        N = self.n + self.m
-        K = sp.csc_matrix((N, N), dtype=float)
-        K.data, K.indices, K.indptr = data, self._indices, self._indptr
-        K.has_canonical_format = True
-        return K
+        (entrywise), a new one (:meth:`~cvxcontact.backends.pattern.MixedPattern.matrix`)."""
+        return self.pattern.matrix(np.asarray(active, dtype=bool), self.soft, absolute)
 
     def _refactor(self, active, K=None, own_analysis: bool = False):
         """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
@@ -416,7 +401,9 @@ class SparseContact:
     def _system(self, active):
         """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
         check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
-        K, absK = self.matrix(active), None
+        # K(A) and |K(A)| on the pattern's two kept buffers, only the rows changed since the last system rewritten
+        # (the same values as matrix(); held by no one past this call: PARDISO and SuperLU copy what they factorise)
+        K, absK = self.pattern.kept(active, self.soft), None
         for attempt in range(3):
             if attempt == 2:
                 self.forget(analysis=True)
@@ -431,7 +418,7 @@ class SparseContact:
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
                 # componentwise backward error (each row's own terms; |K(A)| from the pattern's |values|)
-                absK = self.matrix(active, absolute=True) if absK is None else absK
+                absK = self.pattern.kept(active, self.soft, absolute=True) if absK is None else absK
                 scale = absK @ np.abs(z) + np.abs(b)
                 # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term

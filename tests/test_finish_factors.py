@@ -1,6 +1,6 @@
 """The finish's linear algebra shortcuts: the economic QR updates of Lawson-Hanson's passive rows
 (cvxcontact.backends.finish.dependent) against dense QR / least squares, and the mixed system (26) solved by
-PARDISO (cvxcontact.backends.factor.symmetric_lu, full.solve_mixed(factorization="auto")) against a dense solve
+PARDISO (cvxcontact.backends.full.symmetric_lu, full.solve_mixed(factorization="auto")) against a dense solve
 and SuperLU, including the singular cases SuperLU decides. PARDISO tests skip without oneMKL."""
 
 import warnings
@@ -73,7 +73,7 @@ def test_the_mixed_system_by_pardiso_matches_a_dense_solve_and_superlu(monkeypat
     x_auto = full.solve_mixed(K, b, factorization="auto")                 # (SuperLU below PARDISO_MIN: the same)
     x_superlu = full.solve_mixed(K, b)
     assert rel(x_auto, x_dense) <= 1e-11 and rel(x_superlu, x_dense) <= 1e-11      # measured 6e-16, 5e-16
-    lu = factor.symmetric_lu(K)
+    lu = full.symmetric_lu(K)
     assert lu is not None and lu.perturbed == 0                           # PARDISO took it (not the fallback)
     assert rel(lu.solve(b), x_dense) <= 1e-8                                # unrefined; measured 6e-16
     lu.release()
@@ -87,8 +87,8 @@ def test_pardiso_declines_what_superlu_must_decide(monkeypatch):
     K, _ = saddle()
     N = K.tolil()
     N[0, 1] += 1.0
-    assert factor.symmetric_lu(N.tocsc()) is None
-    assert factor.symmetric_lu(sp.csc_matrix(np.eye(4) + 0.5)) is None     # dense: LAPACK's business (lu)
+    assert full.symmetric_lu(N.tocsc()) is None
+    assert full.symmetric_lu(sp.csc_matrix(np.eye(4) + 0.5)) is None     # dense: LAPACK's business (lu)
     Ks, bs = saddle(dependent_rows=True)
     for rhs in (bs, Ks @ np.ones(Ks.shape[0])):                          # inconsistent, consistent
         with warnings.catch_warnings():
@@ -112,8 +112,8 @@ def test_the_force_controlled_punch_is_the_same_with_or_without_pardiso(monkeypa
     scene = punch_scene(punch_block(30, 15, 9.0, 8.0))
     monkeypatch.setattr(cones, "FACTORED", False)
     monkeypatch.setattr(full, "PARDISO_MIN", 0)                # (its systems, 3,800 rows, are below the default)
-    took = []
-    monkeypatch.setattr(full, "symmetric_lu", lambda K: took.append(factor.symmetric_lu(K)) or took[-1])
+    took, real = [], full.symmetric_lu
+    monkeypatch.setattr(full, "symmetric_lu", lambda K: took.append(real(K)) or took[-1])
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cc.ResolutionWarning)
         fast = cc.solve(scene, condition="gamma3", degree=2, method="full")

@@ -55,9 +55,9 @@ from scipy.sparse.csgraph import structural_rank
 
 from ..errors import SolverError
 
-__all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available", "resolve",
-           "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
-           "symmetric_lu", "PardisoInterior", "PARDISO_ORDERINGS"]
+__all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available",
+           "resolve", "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
+           "PardisoInterior", "PARDISO_ORDERINGS", "diagonal_stored"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -130,31 +130,6 @@ def lu(K, **options):
         structurally_nonsingular(K)
         return DenseLU(K)
     return superlu(K, **options)
-
-
-def symmetric_lu(K):
-    """PARDISO's factorisation of the square sparse symmetric ``K`` (a mixed system (26): real symmetric
-    indefinite, its own nested-dissection order, scaling and weighted matching, :class:`PardisoSymmetric`),
-    with ``solve(b)`` and ``release()``; None where it does not apply and the caller's SuperLU (:func:`lu`)
-    decides: PARDISO not installed, K nearly dense (:data:`DENSE_FILL`) or not symmetric (to 1e-12 of its largest
-    entry: K's upper triangle is factorised), or a pivot PARDISO
-    perturbed (K singular or nearly so; the answer would be that of a nearby matrix). The caller refines
-    against K and checks the residual."""
-    n = K.shape[0]
-    if n == 0 or K.nnz > DENSE_FILL * n * n or not pardiso_available():
-        return None
-    K = sp.csc_matrix(K)
-    if abs(K - K.T).max() > 1e-12 * abs(K).max():        # symmetric to rounding: PARDISO reads the upper part
-        return None
-    Kd = diagonal_stored(K.tocoo(), sp.csc_matrix)
-    try:
-        factor = PardisoSymmetric(Kd).factor(Kd)
-    except SolverError:
-        return None
-    if factor.perturbed:
-        factor.release()
-        return None
-    return factor
 
 
 def diagonal_stored(coo, fmt):
@@ -444,18 +419,19 @@ def _open(obj, lib, n, threads):
 class PardisoFactorization(Factorization):
     """Intel oneMKL PARDISO, real symmetric indefinite, with the Gamma dofs as its Schur block (module
     docstring). Raises :class:`SolverError` on any PARDISO error and on perturbed pivots (iparm[13] > 0: the
-    factors would then be of a nearby matrix, and Sigma wrong)."""
+    factors would then be of a nearby matrix, and Sigma wrong). ``upper``: S is given as what PARDISO reads, its upper
+    triangle in CSR, sorted, every diagonal entry stored (the sparse route's coarse start, coarse.bordered_upper)."""
 
     name = "pardiso"
 
-    def __init__(self, S, gamma, threads=None):
+    def __init__(self, S, gamma, threads=None, upper: bool = False):
         lib = _load()
         if lib is None:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
         n, m = S.shape[0], len(gamma)
         if m == 0 or m == n:
             raise SolverError("the pardiso adapter needs at least one interior and one contact dof")
-        U = diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
+        U = S if upper else diagonal_stored(sp.triu(sp.csr_matrix(S), format="coo"), sp.csr_matrix)
         self._a = np.ascontiguousarray(U.data, dtype=np.float64)
         self._ia = np.ascontiguousarray(U.indptr, dtype=np.int32)
         self._ja = np.ascontiguousarray(U.indices, dtype=np.int32)
@@ -590,17 +566,20 @@ class PardisoSymmetric:
         if isinstance(ordering, bool) or ordering not in PARDISO_ORDERINGS:
             raise SolverError(f"PardisoSymmetric: ordering must be one of {PARDISO_ORDERINGS} (PARDISO's iparm[1]: 3 "
                               f"nested dissection, 0 minimum degree), got {ordering!r}")
-        K = sp.csc_matrix(K)
+        K = K if sp.issparse(K) and K.format == "csc" else sp.csc_matrix(K)     # (a wrapper would view its arrays)
         n = K.shape[0]
         if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
             raise SolverError("PardisoSymmetric needs K in CSC with sorted indices")
-        self._pattern = (K.indptr.copy(), K.indices.copy())          # every later K's, entry for entry
-        col = np.repeat(np.arange(n), np.diff(K.indptr))             # CSC of a symmetric K = CSR of K:
-        self._upper = K.indices >= col                                # column j's rows >= j = row j's upper part
-        if int(self._upper.sum()) < n or np.any(np.bincount(col[K.indices == col], minlength=n) != 1):
+        # every later K's, entry for entry: a read-only pattern that owns its arrays (the sparse route's, shared by
+        # its every K(A)) is kept as it is, and a K on the same arrays is read without comparing them (_values)
+        self._pattern = tuple(a if not a.flags.writeable and a.flags.owndata else a.copy()
+                              for a in (K.indptr, K.indices))
+        col = np.repeat(np.arange(n, dtype=K.indices.dtype), np.diff(K.indptr))   # CSC of a symmetric K = CSR of K:
+        diagonal = np.flatnonzero(K.indices == col)                  # column j's rows >= j = row j's upper part,
+        if len(diagonal) != n or not np.array_equal(col[diagonal], np.arange(n)):     # from its diagonal on
             raise SolverError("PardisoSymmetric needs every diagonal entry of K stored")
-        counts = np.bincount(col[self._upper], minlength=n)
-        self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(counts)]), dtype=np.int32)
+        self._upper = np.flatnonzero(K.indices >= col)
+        self._ia = np.ascontiguousarray(np.concatenate([[0], np.cumsum(K.indptr[1:] - diagonal)]), dtype=np.int32)
         self._ja = np.ascontiguousarray(K.indices[self._upper], dtype=np.int32)
         self.single, self._real = bool(single), np.float32 if single else np.float64
         self._a = np.ascontiguousarray(K.data[self._upper], dtype=self._real)
@@ -632,13 +611,17 @@ class PardisoSymmetric:
         """Take ``K``'s values in the analysed pattern's order; SolverError if its stored entries (CSC, in their
         order) are not exactly those of the matrix given at construction (the same count in another pattern would
         otherwise be read in the wrong places: a factor of another matrix)."""
-        K = sp.csc_matrix(K)
+        K = K if sp.issparse(K) and K.format == "csc" else sp.csc_matrix(K)     # (a wrapper would view its arrays)
         indptr, indices = self._pattern
-        same = K.shape == (self.n, self.n) and np.array_equal(K.indptr, indptr) and np.array_equal(K.indices, indices)
+        same = K.shape == (self.n, self.n) and all(a is b or np.array_equal(a, b) for a, b in
+                                                    ((K.indptr, indptr), (K.indices, indices)))
         if not same:
             raise SolverError(f"PardisoSymmetric.{what}: K's pattern differs from the analysed one (the same stored "
                               "entries in the same CSC order are needed; a new PardisoSymmetric for another pattern)")
-        self._a[:] = K.data[self._upper]
+        if self.single:
+            self._a[:] = K.data[self._upper]
+        else:                                                         # (in place; indices all valid: clip is moot)
+            np.take(K.data, self._upper, out=self._a, mode="clip")
 
     def analyse(self, K):
         """The analysis alone (PARDISO's phase 11: ordering, symbolic factorisation, and the scaling and weighted
@@ -665,7 +648,7 @@ class PardisoSymmetric:
         return self
 
     def solve(self, b):
-        b = np.array(b, dtype=self._real, order="F")
+        b = np.asarray(b, dtype=self._real, order="F")      # (read only: iparm[5] = 0, the solution in x)
         x = np.zeros_like(b)
         self._iparm[5] = 0
         self._call(33, b, x, b.shape[1] if b.ndim == 2 else 1)

@@ -17,9 +17,16 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla  # noqa: F401  (tests reach scipy.sparse.linalg as full.spla)
 from scipy.linalg import null_space
 
+from ..errors import SolverError
 from .condensed import quasi_definite
+from .factor import (
+    DENSE_FILL,
+    PardisoSymmetric,
+    diagonal_stored,
+    pardiso_available,
+    structurally_nonsingular,
+)
 from .factor import lu as dense_or_sparse_lu
-from .factor import structurally_nonsingular, symmetric_lu
 
 __all__ = [
     "ContactModel",
@@ -41,6 +48,32 @@ refinement, but on an ill-conditioned small system they differ by up to 1e-13, m
 the contact, which its finish's checks can see)."""
 
 
+def symmetric_lu(K):
+    """PARDISO's factorisation of the square sparse symmetric ``K`` (a mixed system (26): real symmetric
+    indefinite, its own nested-dissection order, scaling and weighted matching,
+    :class:`~cvxcontact.backends.factor.PardisoSymmetric`), with ``solve(b)`` and ``release()``; None where it does
+    not apply and the caller's SuperLU (:func:`~cvxcontact.backends.factor.lu`) decides: PARDISO not installed, K
+    nearly dense (:data:`~cvxcontact.backends.factor.DENSE_FILL`) or not symmetric (to 1e-12 of its largest
+    entry: K's upper triangle is factorised), or a pivot PARDISO
+    perturbed (K singular or nearly so; the answer would be that of a nearby matrix). The caller refines
+    against K and checks the residual."""
+    n = K.shape[0]
+    if n == 0 or K.nnz > DENSE_FILL * n * n or not pardiso_available():
+        return None
+    K = sp.csc_matrix(K)
+    if abs(K - K.T).max() > 1e-12 * abs(K).max():        # symmetric to rounding: PARDISO reads the upper part
+        return None
+    Kd = diagonal_stored(K.tocoo(), sp.csc_matrix)
+    try:
+        factor = PardisoSymmetric(Kd).factor(Kd)
+    except SolverError:
+        return None
+    if factor.perturbed:
+        factor.release()
+        return None
+    return factor
+
+
 def solve_mixed(K, b, residual: float | None = 1e-8, factorization: str = "superlu"):
     """x with K x = b for a sparse mixed (KKT) matrix K: SuperLU (minimum degree on K^T + K) and two steps of
     iterative refinement (bodies of very different stiffness share one LU). None if K is singular, x is not
@@ -52,7 +85,7 @@ def solve_mixed(K, b, residual: float | None = 1e-8, factorization: str = "super
     in later factorisations).
 
     ``factorization="auto"`` (with ``residual`` set, K of order :data:`PARDISO_MIN` or more): PARDISO first where
-    it applies (:func:`~cvxcontact.backends.factor.symmetric_lu`: a symmetric K, no perturbed pivot), refined the
+    it applies (:func:`symmetric_lu`: a symmetric K, no perturbed pivot), refined the
     same way; an answer that misses the residual falls back to SuperLU, which then decides (measured on issue
     30's punch, 23,938 rows: 0.13 s a factorisation instead of SuperLU's 1 s)."""
     try:

@@ -72,10 +72,11 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .condensed import quasi_definite
-from .coarse import COARSE_HOPS, NEAR_DEPENDENT, coarse_rows, row_graph, spread  # noqa: F401  (re-exported)
+from .coarse import COARSE_HOPS, NEAR_DEPENDENT, bordered_upper, coarse_rows, row_graph, spread  # noqa: F401
 from .elimination import factorize, ordering
+from .pattern import MixedPattern, block_diagonal
 from . import SPARSE_ROWS  # noqa: F401  (the auto threshold, defined with the registry)
-from ..errors import SolverError, frozen_pattern
+from ..errors import SolverError
 from .finish import Declined, active_set_steps, lawson_hanson, row_compliance, row_reach, signs_hold, solve_lcp
 
 __all__ = ["SparseContact", "factorize", "SPARSE_ROWS", "SOFT", "COARSE_ROWS", "SLENDER_FILL", "SLENDER_FACE"]
@@ -156,34 +157,19 @@ class SparseContact:
         self.factorization = resolve(factorization)      # "superlu" or "pardiso" (analysis once, then numeric)
         self._pardiso = None
         parts = [quasi_definite(b) for b in blocks]
-        A = sp.block_diag([S for S, _ in parts], format="coo")
+        A = block_diagonal([S for S, _ in parts])
         self.sizes = [(b.Kuu.shape[0], S.shape[0] - b.Kuu.shape[0]) for b, (S, _) in zip(blocks, parts)]
-        self.n = n = A.shape[0]
+        self.n = A.shape[0]
         self.m = m = E.shape[0]
         G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((m, n_phi))]) for b, (_, n_phi)
                        in zip(blocks, self.sizes)]).tocsr()
         G.sum_duplicates()
         self.G = G
         self.A = A.tocsr()
-        self.reach = row_reach(A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
-        Gc = G.tocoo()
+        self.reach = row_reach(self.A, G)      # |G| + |G| diag(A)^-1 |A|: a row's scale counts its neighbours
         self.w = row_weights(blocks, E)
-        # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `row`, 2 = its diagonal
-        rows = np.concatenate([A.row, n + Gc.row, Gc.col, n + np.arange(m)])
-        cols = np.concatenate([A.col, Gc.col, n + Gc.row, n + np.arange(m)])
-        vals = np.concatenate([A.data, Gc.data, Gc.data, -np.ones(m)])
-        kind = np.concatenate([np.zeros(A.nnz, np.int8), np.ones(2 * Gc.nnz, np.int8), np.full(m, 2, np.int8)])
-        rid = np.concatenate([np.zeros(A.nnz, np.int64), Gc.row, Gc.row, np.arange(m)])
-        N = n + m
-        order = sp.csc_matrix((np.arange(1, len(rows) + 1, dtype=float), (rows, cols)), shape=(N, N))
-        if order.nnz != len(rows):
-            raise SolverError("duplicate entries in the sparse mixed system's pattern (a contact row coupling a "
-                              "dof twice); use method='condensed' or 'full'")
-        idx = order.data.astype(np.int64) - 1
-        self._indices, self._indptr = frozen_pattern(order).indices, order.indptr      # shared by every K(A)
-        self._vals, self._kind, self._rid = vals[idx], kind[idx], rid[idx]
-        self._abs = np.abs(self._vals)
-        self._couple, self._diag = np.flatnonzero(self._kind == 1), np.flatnonzero(self._kind == 2)
+        # one pattern for every active set: kind 0 = S, 1 = a coupling of contact row `rid`, 2 = its diagonal
+        self.pattern = MixedPattern(A, G)
         self.F = np.concatenate([F for _, F in parts])
         self.soft = np.zeros(m) if soft is None else np.broadcast_to(np.asarray(soft, dtype=float), (m,)).copy()
         self.perm = None
@@ -203,20 +189,8 @@ class SparseContact:
 
     def matrix(self, active, absolute: bool = False) -> sp.csc_matrix:
         """K(A) in CSC, the fixed pattern with the values of the active set ``active`` (bool, m); ``absolute``: |K(A)|
-        (entrywise). Its index arrays are the pattern's own (read-only: every K(A) shares them), and it is built
-        without the constructor's format check (canonical by construction: sorted, no duplicates)."""
-        active = np.asarray(active, dtype=bool)
-        vals = self._abs if absolute else self._vals
-        data = vals.copy()
-        c, d = self._couple, self._diag
-        data[c] = np.where(active[self._rid[c]], vals[c], 0.0)
-        soft = np.abs(self.soft) if absolute else -self.soft
-        data[d] = np.where(active[self._rid[d]], soft[self._rid[d]], 1.0 if absolute else -1.0)
-        N = self.n + self.m
-        K = sp.csc_matrix((N, N), dtype=float)
-        K.data, K.indices, K.indptr = data, self._indices, self._indptr
-        K.has_canonical_format = True
-        return K
+        (entrywise), a new one (:meth:`~cvxcontact.backends.pattern.MixedPattern.matrix`)."""
+        return self.pattern.matrix(np.asarray(active, dtype=bool), self.soft, absolute)
 
     def _refactor(self, active, K=None, own_analysis: bool = False):
         """Factorise K(``active``) (``K`` if given) and make it the base; False if singular (SuperLU). PARDISO's
@@ -328,7 +302,7 @@ class SparseContact:
         from the base; (row, 1): a force -G_a^T on x along an added row) in one block and cache their
         (G Zx, Zy); the first block of at least :data:`CAP_MIN` columns sets the default cap (:meth:`_over_cap`)."""
         n, factor = self.n, self.base[1]
-        cols = np.zeros((n + self.m, len(keys)))
+        cols = np.zeros((n + self.m, len(keys)), order="F")      # as PARDISO reads them (no copy)
         for j, (a, kind) in enumerate(keys):
             if kind == 0:
                 cols[n + a, j] = 1.0                                  # a gap correction on the dropped row
@@ -427,7 +401,9 @@ class SparseContact:
     def _system(self, active):
         """(z, residual) of K(active) z = [F; P g] via the base (refactorised if needed; if the answer fails its
         check, refactorised, then refactorised after a fresh analysis, module docstring); None if singular."""
-        K, absK = self.matrix(active), None
+        # K(A) and |K(A)| on the pattern's two kept buffers, only the rows changed since the last system rewritten
+        # (the same values as matrix(); held by no one past this call: PARDISO and SuperLU copy what they factorise)
+        K, absK = self.pattern.kept(active, self.soft), None
         for attempt in range(3):
             if attempt == 2:
                 self.forget(analysis=True)
@@ -442,7 +418,7 @@ class SparseContact:
             for _ in range(3):          # iterative refinement against K(A) itself, while needed
                 r = b - K @ z
                 # componentwise backward error (each row's own terms; |K(A)| from the pattern's |values|)
-                absK = self.matrix(active, absolute=True) if absK is None else absK
+                absK = self.pattern.kept(active, self.soft, absolute=True) if absK is None else absK
                 scale = absK @ np.abs(z) + np.abs(b)
                 # plus, on a contact row, the displacement w_a |y_a| its own force makes (as in the steps): a row
                 # closed at g = 0 against a fixed side (a rigid floor, a clamped foundation) has no other term
@@ -656,6 +632,7 @@ class SparseContact:
         """(C, idx, y) of :meth:`coarse_start`: the rows' graph (pattern, m x m: rows sharing a dof, each its own
         neighbour), the coarse rows and their forces (the LCP's answer on W_c, > 0 on the closed ones); None as
         there."""
+        from .factor import PardisoFactorization
         from .factor import factorize as factorize_schur
 
         C = row_graph(self.G)
@@ -663,15 +640,17 @@ class SparseContact:
         if len(idx) == 0 or len(idx) == int(free.sum()):
             return None
         Gc = self.G[idx]
-        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr")
         gamma = self.n + np.arange(len(idx))
+        U = bordered_upper(self.A, Gc) if self.factorization == "pardiso" else None   # what PARDISO reads of M
+        M = sp.bmat([[self.A, Gc.T], [Gc, None]], format="csr") if U is None else None
         order = None
         if self.factorization != "pardiso":             # SuperLU: the route's ordering of S's dofs, the rows last
             if self.perm is None:
                 self.perm = ordering(self.matrix(np.ones(self.m, dtype=bool)), self.n + np.arange(self.m))
             order = np.concatenate([self.perm[self.perm < self.n], gamma])
         try:
-            fac = factorize_schur(M, gamma, self.factorization, order=order)
+            fac = factorize_schur(M, gamma, self.factorization, order=order) if U is None else \
+                PardisoFactorization(U, gamma, upper=True)
         except (SolverError, RuntimeError):
             return None
         try:

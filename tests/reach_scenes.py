@@ -107,10 +107,10 @@ def block2d(obstacles):
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 
 
-def block3d(obstacles):
-    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its
-    bottom (one pair each)."""
-    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+def block3d(obstacles, cell="tetra"):
+    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] (``cell`` "tetra" or "hex") on rollers, pushed down by DELTA onto
+    ``obstacles`` under its bottom (one pair each)."""
+    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H), cell=cell), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 

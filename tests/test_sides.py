@@ -181,6 +181,7 @@ def test_friction_t_h_of_a_pair_alone_is_its_own():
     c, itf = sol.contact, sol._pair_line(0)
     own = np.column_stack([itf.multiplier(col) for col in np.asarray(c.shear_force).T])
     assert np.array_equal(c.shear_multiplier, own)
+    assert not c.shear_multiplier.flags.writeable                     # read-only, as the read-back's other fields
 
 
 @pytest.mark.parametrize("order", ["strip first", "floor first"])

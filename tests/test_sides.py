@@ -172,7 +172,6 @@ def test_friction_t_h_read_once_per_side(layer_on_strips):
     tau = 0.2 * P * DIAGONAL3
     # measured <= 5.2e-14 tau (Tresca), 3.6e-14 (Coulomb), 5 kernel sets; before 0.82 tau
     assert np.abs(t[:, :2] + tau).max() <= 1e-11 * 0.2 * P
-    assert np.abs(t[:, 2]).max() == 0.0                                # in the plane
 
 
 def test_friction_t_h_of_a_pair_alone_is_its_own():

@@ -73,6 +73,17 @@ def tilted_plane(lo, hi):
                     sensitivity=lambda x, nu: np.tile([0.0, 0.0, 1.0], (len(x), 1)), dim=3)
 
 
+def step(at, dim, drop=3e-6):
+    """One obstacle: the plane (2D: line) y = 0 (3D: z) under x < ``at``, y = -``drop`` under x >= ``at``, its
+    distance along the ray -y (-z): the upper envelope of :func:`strip` (:func:`line`) under x < ``at`` and
+    :func:`lowered` under the whole part, as a single pair."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return x[:, dim - 1] + np.where(x[:, 0] < at, 0.0, drop)
+    return cc.Rigid("step", distance, f"a floor falling by {drop} at x = {at}",
+                    sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
+
+
 def box_on_boxes(cuts=(0.4,), n=3):
     """The n x n x 1 box [0, 1]^2 x [0, H] of steel pushed down by DELTA onto boxes [c_i, c_i+1] x [0, 1] x [-H, 0]
     clamped at their bottom (0 = c_0 < cuts < 1), every side on rollers, one pair per lower box (the upper box
@@ -96,10 +107,10 @@ def block2d(obstacles):
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 
 
-def block3d(obstacles):
-    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its
-    bottom (one pair each)."""
-    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H)), STEEL, roller=SIDES,
+def block3d(obstacles, cell="tetra"):
+    """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] (``cell`` "tetra" or "hex") on rollers, pushed down by DELTA onto
+    ``obstacles`` under its bottom (one pair each)."""
+    body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H), cell=cell), STEEL, roller=SIDES,
                    displacement={"top": (None, None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 

@@ -134,8 +134,9 @@ def read_back_friction(problem, raw, sol) -> None:
     shear = -Tmu * un.force                                               # N/m (3D N) at the nodes of X_h
     laws = getattr(problem.rows, "laws", ())
     alone = [i for i, law in enumerate(laws) if law.compliant or law.friction is None]  # as lambda_h; no t_h
+    held = _holding(laws, offsets, sol._closed)
     t_h = trace.shear_multiplier(problem.interface, shear, lambda f: side_multiplier(problem.interface, f, alone,
-                                                                                       sol._closed))
+                                                                                       held))
     sol.contacts = [replace(c, slip=slip[a:b] * un.displacement, shear_force=shear[a:b],
                             threshold=threshold(i, a, b, c), slip_measure=measure[a:b],
                             row_shear=row_shear(i, a, b), shear_multiplier=None if t_h is None else t_h[a:b])
@@ -145,6 +146,20 @@ def read_back_friction(problem, raw, sol) -> None:
             if isinstance(getattr(c, f), np.ndarray):
                 getattr(c, f).setflags(write=False)
     sol.contact = sol.contacts[0]
+
+
+def _holding(laws, offsets, closed) -> np.ndarray | None:
+    """Where each pair's rows may hold a tangential force (bool per stacked node of X_h; None: ``closed`` not
+    read), the nodes a side's t_h is shared among (``active`` of
+    :func:`~cvxcontact.solution.sides.side_multiplier`): where its contact is closed (``closed``, as lambda_h's
+    shares), and everywhere under a threshold that does not depend on the pressure (Tresca's g: an open row holds
+    up to g w_a too, so a pair closed nowhere may carry part of a side's tangential forces; read alone, the
+    representer of its part on its own reach, the pairs' t_h would not sum to the side's). ``laws`` the pairs'
+    (``problem.rows.laws``), ``offsets`` their nodes' in the stack."""
+    if closed is None or len(laws) != len(offsets) - 1:
+        return closed
+    fixed = [law.friction is not None and not law.friction.pressure_dependent for law in laws]
+    return np.asarray(closed, dtype=bool) | np.repeat(np.asarray(fixed, dtype=bool), np.diff(offsets))
 
 
 def obstacle_friction(problem, raw) -> list | None:

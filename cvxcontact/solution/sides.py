@@ -27,7 +27,8 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
 
 A friction law's t_h on 3D P2 faces (the Riesz representer of the tangential forces, as lambda_h is of the normal
 ones) is read by the same rule, per tangential component (``trace.shear_multiplier`` from the friction read-back,
-:mod:`cvxcontact.solution.friction`), frictionless pairs each alone.
+:mod:`cvxcontact.solution.friction`), frictionless pairs each alone; a Tresca pair counts as closed at every node
+(its open rows hold up to g w_a too: a pair closed nowhere may carry part of the side's tangential forces).
 
 Other groups (a two-body pair beside obstacles on one part, 2D two-body pairs, pairs reading lambda_h by a
 representer of their own) keep each pair's ``multiplier``, and so does a normal-compliance pair (its read-back sets

@@ -99,10 +99,12 @@ class ContactResult:
     areas), extended to every node of X_h as :attr:`row_pressure`; what :attr:`shear` reads. None:
     :attr:`shear_force` over the lumped lengths (areas)."""
     shear_multiplier: np.ndarray | None = None
-    """A friction law on a 3D P2 pair: t_h (Pa, (n, 2) along the pair's frame), the Riesz representer of the
-    tangential forces in X_h read once per side as :attr:`lam` is (:mod:`cvxcontact.solution.sides`: where several
-    pairs hold one part, the pair's share of the side's t_h), what the error estimate reads
-    (``trace.friction_fields``). None: 2D and P1 (the lumped read-back), or the pair's own representer."""
+    """A friction law on a 3D P2 pair: t_h (Pa, (n, 2) along the pair's frame; the tangential traction t of eq. (8)
+    with friction, :mod:`cvxcontact.solution.slipestimate`), the Riesz representer of the tangential forces in X_h
+    read once per side as :attr:`lam` is (:mod:`cvxcontact.solution.sides`: where several pairs hold one part, the
+    pair's share of the side's t_h; a pair alone, its own), what the error estimate reads on tetrahedra
+    (``trace.friction_fields``; hexahedra read their faces' hats, :mod:`cvxcontact.solution.tensorestimate`).
+    Read-only. None: 2D and P1 (the lumped read-back), or without friction."""
     scale: float = 0.0
     """The size (m) of the terms of ``jump`` on this pair: the largest sum over its nodes of both bodies'
     |u . nu| (and of a prescribed displacement's |u_D . nu|), the scale of :attr:`penetration`."""

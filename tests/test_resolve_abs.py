@@ -10,8 +10,7 @@ import pytest
 from conftest import two_blocks
 
 import cvxcontact as cc
-from cvxcontact.discrete import build_problem
-from cvxcontact.discrete import energy
+from cvxcontact.discrete import build_problem, energy
 from cvxcontact.discrete.energy import abs_product
 from cvxcontact.fem.space import space
 
@@ -57,7 +56,7 @@ def test_the_row_scales_are_the_same_numbers_with_the_kept_values(problem, monke
 def test_the_kept_values_are_read_only_shared_by_load_cases_and_not_read_for_another_matrix(problem):
     upper = problem.blocks[0]
     values = {name: upper.abs_values(name)[1] for name in ("Kuu", "Kup", "Kpp", "KupT")}
-    for name, v in values.items():
+    for v in values.values():
         assert not v.flags.writeable
         with pytest.raises(ValueError):
             v[0] = 1.0

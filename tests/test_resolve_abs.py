@@ -101,3 +101,55 @@ def test_a_re_solve_checks_as_a_problem_built_afresh_and_answers_as_a_fresh_solv
     assert abs(sol.estimate.absolute - new.estimate.absolute) <= 1e-10 * new.estimate.absolute
     for name, value in new.residuals().items():
         assert sol.residuals()[name] <= max(10 * value, 1e-12), name
+
+
+def test_products_kept_for_a_batch_are_the_single_products_and_read_only_for_their_fields(problem, monkeypatch):
+    """keep_batch forms each matrix's products of three load cases as the columns of one product: each column bit
+    for bit the product alone (SciPy sums each column as a vector); read only for bit for bit the same fields;
+    drop_batch frees them. Blocks of 7 rows/columns too (abs_product's blocks on a matrix of columns)."""
+    from cvxcontact.discrete.blocks import BATCHED, drop_batch, keep_batch
+
+    scenes = [two_blocks(scale=0.37 + 0.1 * i, traction={"right": (0.0, -1e8 * i)}) for i in range(3)]
+    for rows in (energy.ROWS, 7):
+        monkeypatch.setattr(energy, "ROWS", rows)
+        for k in range(2):
+            blocks = [problem.with_loads(s).blocks[k] for s in scenes]
+            fields = [_fields(b, 10 * k + i) for i, b in enumerate(blocks)]
+            keep_batch(blocks, [x[0] for x in fields], [x[1] for x in fields])
+            piezo = blocks[0].Kpp is not None                           # the upper block; the lower elastic
+            assert all((key in b.products) == (piezo or key[1] == "Kuu") for b in blocks for key in BATCHED)
+            assert piezo == (k == 0)
+            for b, (u, phi, c) in zip(blocks, fields):
+                alone = replace(b, products={})
+                for p, q in zip(b.magnitude(u, phi, c) + b.residual(u, phi, c),
+                                alone.magnitude(u, phi, c) + alone.residual(u, phi, c)):
+                    assert np.array_equal(p, q)
+                assert b._kept("abs", "Kuu", u) is not None and b._kept("abs", "Kuu", u + 1.0) is None
+                drop_batch(b)
+                assert b._kept("abs", "Kuu", u) is None and not any(key in b.products for key in BATCHED)
+
+
+@pytest.mark.numerics
+def test_solve_many_checks_as_without_the_batch_products(monkeypatch):
+    """The same load cases through two solvers' solve_many, one without keep_batch: the same fields, checks and
+    estimates bit for bit (the products are the same numbers), the kept products read and then dropped."""
+    from cvxcontact.discrete import blocks as blocks_module
+
+    solve_module = __import__("importlib").import_module("cvxcontact.solve")
+    scenes = [two_blocks(scale=0.37, traction={"right": (0.0, 1.1e8 * (1 + i / 10))}) for i in range(3)]
+    with_, without = (cc.ContactSolver(two_blocks(), method="condensed") for _ in range(2))
+    with_.solve()
+    without.solve()
+    hits = []
+    kept = blocks_module.Block._kept
+    monkeypatch.setattr(blocks_module.Block, "_kept", lambda self, *a: hits.append(kept(self, *a)) or hits[-1])
+    a = with_.solve_many(scenes)
+    assert sum(h is not None for h in hits) >= 6 * len(scenes)       # the piezoelectric block's six, at least
+    monkeypatch.setattr(solve_module, "keep_batch", lambda *args: None)
+    b = without.solve_many(scenes)
+    for x, y in zip(a, b):
+        assert x.ok and y.ok
+        assert all(np.array_equal(p, q) for p, q in zip(x.u, y.u))
+        assert x.residuals() == y.residuals()
+        assert x.estimate.absolute == y.estimate.absolute
+    assert not any(key in blk.products for blk in with_.problem.blocks for key in blocks_module.BATCHED)

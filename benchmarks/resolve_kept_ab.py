@@ -1,10 +1,10 @@
 """Re-solves through a prepared ContactSolver with what this pass keeps per problem (|K|'s values for the checks'
-row scales, the estimate's facet operators, solve_many's products of a batch as the columns of one product) and
-without it (the code as at the base commit), interleaved in ONE process.
+row scales, the estimate's facet operators) and without it (the code as at the base commit), interleaved in ONE
+process.
 
 "before": ``Block.abs_values`` keeping nothing (np.abs of the matrix's values formed on every product, as
-abs_product did), the estimate's ``_facet_terms`` of the base commit (the rows taken and subtracted, np.bincount;
-read from git, ``--base``), ``solve_many`` without ``keep_batch``. "after": the working tree. Scene:
+abs_product did) and the estimate's ``_facet_terms`` of the base commit (the rows taken and subtracted,
+np.bincount; read from git, the optional fourth argument). "after": the working tree. Scene:
 ``apps.demo.two_blocks(nx)`` (as benchmarks/bench_resolve.py). The first solve once, then ``rounds`` rounds, each
 with one load case solved alone by each side and ``cases`` load cases through ``solve_many`` by each side (order
 alternating; the upper block's loads x 0.37 and its traction x 1 + i / 1000, i distinct over the run, so that no
@@ -16,7 +16,6 @@ Run (one thread):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/resolve_kept_ab.py 560 5 8
 """
 
-import importlib
 import resource
 import statistics
 import subprocess
@@ -34,7 +33,6 @@ from harness import two_blocks_solver
 from cvxcontact.discrete import blocks as blocks_module
 from cvxcontact.solution import estimate as est
 
-solve_module = importlib.import_module("cvxcontact.solve")
 BASE = "1f844ec7"
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,7 +45,7 @@ def base_facet_terms(base):
     source = (source.replace("from ..", "from cvxcontact.").replace("from . import", "from cvxcontact.solution import")
               .replace("from .", "from cvxcontact.solution."))
     module = sys.modules["estimate_base"] = types.ModuleType("estimate_base")      # (its dataclasses look it up)
-    exec(compile(source, f"{base}:estimate.py", "exec"), module.__dict__)
+    exec(compile(source, f"{base}:estimate.py", "exec"), module.__dict__)    # noqa: S102 (this repository's own code)
     return module._facet_terms
 
 
@@ -65,15 +63,13 @@ def main():
     warnings.simplefilter("ignore")
     nx, rounds, cases = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
     base = sys.argv[4] if len(sys.argv) > 4 else BASE
-    after = {"abs_values": blocks_module.Block.abs_values, "facet": est._facet_terms,
-             "keep": solve_module.keep_batch}
-    before = {"abs_values": abs_values_unkept, "facet": base_facet_terms(base), "keep": lambda *args: None}
+    after = {"abs_values": blocks_module.Block.abs_values, "facet": est._facet_terms}
+    before = {"abs_values": abs_values_unkept, "facet": base_facet_terms(base)}
 
     def use(side):
         parts = before if side == "before" else after
         blocks_module.Block.abs_values = parts["abs_values"]
         est._facet_terms = parts["facet"]
-        solve_module.keep_batch = parts["keep"]
 
     scene, solver, first = two_blocks_solver(nx)
     count = iter(range(10 ** 6))

@@ -21,7 +21,6 @@ from .backends.run import run
 from .backends.start import ContactState, deferred_state
 from .contact.laws import ContactLaw, check_law, check_law_for
 from .discrete import DiscreteProblem, build_problem
-from .discrete.blocks import drop_batch, keep_batch
 from .errors import ResidualWarning, ResolutionWarning, SceneError, SolverError, UnsupportedError, user_stacklevel
 from .fem.space import space
 from .physics.scene import Scene
@@ -274,20 +273,13 @@ class ContactSolver:
         runs[0][2]["batched_backward"] = spent                   # asked first: the first load case's)
         for _, raw, _ in runs:                          # the fields the flush made (Held lists): plain lists
             raw.u, raw.phi = list(raw.u), list(raw.phi)
-        t0 = time.perf_counter()
-        for k in range(len(problems[0].blocks)):        # the checks' products of every load case at once
-            keep_batch([p.blocks[k] for p in problems], [raw.u[k] for _, raw, _ in runs],
-                       [raw.phi[k] for _, raw, _ in runs])
-        runs[0][2]["batched_products"] = time.perf_counter() - t0
         out = []
         for problem, raw, timings in runs:
             if self.method != method:
                 out.append(self._solve(problem, loads))
-            else:
-                self.problem = problem
-                out.append(self._read(problem, raw, timings))
-            for blk in problem.blocks:                 # read: its share of the batch's products is dropped
-                drop_batch(blk)
+                continue
+            self.problem = problem
+            out.append(self._read(problem, raw, timings))
         return out
 
     def _solve(self, problem, loads: float) -> Solution:

@@ -25,11 +25,7 @@ import scipy.sparse as sp
 from ..fem.assembly import frozen
 from .energy import BulkEnergy, Quadratic, abs_product, bulk_energy
 
-__all__ = ["Block", "Units", "drop_batch", "keep_batch", "units"]
-
-BATCHED = (("product", "Kup"), ("product", "KupT"), ("abs", "Kuu"), ("abs", "Kup"), ("abs", "Kpp"), ("abs", "KupT"))
-"""The products :func:`keep_batch` keeps beside :meth:`Block._times`' own (("product", "Kuu"), ("product",
-"Kpp")), and :func:`drop_batch` drops."""
+__all__ = ["Units", "Block", "units"]
 
 
 @dataclass(frozen=True)
@@ -148,23 +144,7 @@ class Block:
         Ku = self._times("Kuu", u) if self._linear else self.bulk.gradient(u)
         if self.Kpp is None:
             return Ku, np.zeros(0)
-        return Ku + self._product("Kup", phi), self._times("Kpp", phi) - self._product("KupT", u)
-
-    def _kept(self, kind: str, name: str, z):
-        """The product ``kind`` ("product", "abs": |M| |z|) of the matrix ``name`` with ``z`` if kept for
-        bit for bit these numbers and the same matrix (:func:`keep_batch`), else None."""
-        kept = self.products.get((kind, name))
-        source = self.Kup if name == "KupT" else getattr(self, name)
-        if kept is not None and kept[0] is source and np.array_equal(kept[1], z):
-            return kept[2]
-        return None
-
-    def _product(self, name: str, z) -> np.ndarray:
-        """Kup z ("Kup") or Kup^T z ("KupT"): the one :func:`keep_batch` kept for z, else formed."""
-        kept = self._kept("product", name, z)
-        if kept is not None:
-            return kept
-        return self.Kup @ z if name == "Kup" else self.Kup.T @ z
+        return Ku + self.Kup @ phi, self._times("Kpp", phi) - self.Kup.T @ u
 
     @property
     def _linear(self) -> bool:
@@ -203,11 +183,7 @@ class Block:
         return kept[1], kept[2]
 
     def _abs_times(self, name: str, z) -> np.ndarray:
-        """|M| |z| of the matrix ``name`` (:meth:`abs_values`): :func:`abs_product` on the kept values (or the
-        product :func:`keep_batch` kept for z)."""
-        kept = self._kept("abs", name, z)
-        if kept is not None:
-            return kept
+        """|M| |z| of the matrix ``name`` (:meth:`abs_values`): :func:`abs_product` on the kept values."""
         M, values = self.abs_values(name)
         return abs_product(M, z, values)
 
@@ -229,37 +205,3 @@ class Block:
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""
         (a_u, a_p), (f, q) = self.internal(u, phi), self.loads()
         return a_u + self.jump.T @ contact_force - f, a_p - q
-
-
-def keep_batch(blocks, us, phis) -> None:
-    """Form the products the checks and the energy read of several load cases of one body at once and keep them
-    in each load case's block: ``blocks`` that body's blocks (one per load case, the same matrices), ``us`` and
-    ``phis`` their fields (scaled, as the read-backs will pass them). Kuu u, Kpp phi (:meth:`Block._times`), Kup
-    phi, Kup^T u and the row scales' |K| |z| of each, as the columns of one product per matrix: each matrix read
-    once for all (the products are bound by reading it). The same numbers as one at a time: SciPy's kernels sum
-    each column as a vector alone, in the same order (checked bit for bit in tests/test_resolve_abs.py). Kept with
-    a copy of the fields (8 bytes per unknown and load case) and read only for bit for bit the same fields and
-    matrices; :func:`drop_batch` frees them once read. Nothing for fewer than two load cases, another matrix or
-    a non-quadratic energy."""
-    first = blocks[0]
-    if len(blocks) < 2 or not all(b._linear and b.Kuu is first.Kuu and b.Kup is first.Kup and b.Kpp is first.Kpp
-                                  for b in blocks):
-        return
-    columns = [("Kuu", us)] + ([("Kpp", phis), ("Kup", phis), ("KupT", us)] if first.Kpp is not None else [])
-    copies = {id(zs): [np.array(z, dtype=float) for z in zs] for _, zs in columns}
-    for name, zs in columns:
-        Z = np.column_stack(zs)
-        source = first.Kup if name == "KupT" else getattr(first, name)
-        M, values = first.abs_values(name)
-        for kind in ("product", "abs"):
-            out = M @ Z if kind == "product" else abs_product(M, Z, values)
-            for j, b in enumerate(blocks):
-                column = out[:, j].copy()
-                column.setflags(write=False)
-                b.products[(kind, name)] = (source, copies[id(zs)][j], column)
-
-
-def drop_batch(block) -> None:
-    """Drop what :func:`keep_batch` kept in ``block`` beside :meth:`Block._times`' own last product."""
-    for key in BATCHED:
-        block.products.pop(key, None)

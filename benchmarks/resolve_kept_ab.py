@@ -39,11 +39,12 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def base_facet_terms(base):
     """``_facet_terms`` of ``base``'s cvxcontact/solution/estimate.py, run in a module of its own (its imports
-    absolute) on today's Geometry (which still holds the rows ``at0``, ``at1`` and ``c0``, ``c1``, ``ii`` it reads)."""
+    absolute) on today's Geometry (which still holds the rows ``at0``, ``at1`` and ``c0``, ``c1``, ``ii`` it
+    reads)."""
     source = subprocess.run(["git", "-C", str(ROOT), "show", f"{base}:cvxcontact/solution/estimate.py"],
                             capture_output=True, text=True, check=True).stdout
-    source = (source.replace("from ..", "from cvxcontact.").replace("from . import", "from cvxcontact.solution import")
-              .replace("from .", "from cvxcontact.solution."))
+    source = (source.replace("from ..", "from cvxcontact.")
+              .replace("from . import", "from cvxcontact.solution import").replace("from .", "from cvxcontact.solution."))
     module = sys.modules["estimate_base"] = types.ModuleType("estimate_base")      # (its dataclasses look it up)
     exec(compile(source, f"{base}:estimate.py", "exec"), module.__dict__)    # noqa: S102 (this repository's own code)
     return module._facet_terms

@@ -43,8 +43,9 @@ def base_facet_terms(base):
     reads)."""
     source = subprocess.run(["git", "-C", str(ROOT), "show", f"{base}:cvxcontact/solution/estimate.py"],
                             capture_output=True, text=True, check=True).stdout
-    source = (source.replace("from ..", "from cvxcontact.")
-              .replace("from . import", "from cvxcontact.solution import").replace("from .", "from cvxcontact.solution."))
+    for old, new in (("from ..", "from cvxcontact."), ("from . import", "from cvxcontact.solution import"),
+                     ("from .", "from cvxcontact.solution.")):
+        source = source.replace(old, new)
     module = sys.modules["estimate_base"] = types.ModuleType("estimate_base")      # (its dataclasses look it up)
     exec(compile(source, f"{base}:estimate.py", "exec"), module.__dict__)    # noqa: S102 (this repository's own code)
     return module._facet_terms
@@ -123,8 +124,9 @@ def main():
     kept = sum(v[2].nbytes for b in solver.problem.blocks for k, v in b.absolute.items() if k != "KupT")
     faces = sum(J.data.nbytes + J.indices.nbytes + J.indptr.nbytes for g in solver._geometry.values()
                 for J in [j for j, _ in g.faces.jumps] + list(g.faces.owners))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
     print(f"  kept: |K|'s values {kept / 1e6:.1f} MB (Kuu, Kup, Kpp, |jump| of both bodies); the estimate's facet "
-          f"operators {faces / 1e6:.1f} MB; peak RSS {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6:.2f} GB")
+          f"operators {faces / 1e6:.1f} MB; peak RSS {peak:.2f} GB")
 
 
 if __name__ == "__main__":

@@ -234,7 +234,9 @@ class ContactSolver:
         (:meth:`~cvxcontact.backends.interface.Condensation.prepare`) and, where the route finishes exactly on
         the interface, one backward sweep of their fields (:meth:`~cvxcontact.backends.interface.Condensation.
         defer`), its factors read once for all (timed as ``batched_sweeps`` and ``batched_backward`` in the
-        stage timings of the first of them). The answers are :meth:`solve`'s to rounding (a batched sweep sums in
+        stage timings of the first of them; the forward sweep is made when the first route asks for it, inside
+        that load case's ``interface_load``: a route that sweeps nothing, e.g. the sparse route a fallback moved
+        the solver to, makes none). The answers are :meth:`solve`'s to rounding (a batched sweep sums in
         another order), checked and estimated as :meth:`solve`'s. Every scene is checked against the prepared
         geometry before anything is solved (SceneError, naming what differs; one too if ``scenes`` is a Scene or
         not a sequence of them)."""
@@ -250,12 +252,9 @@ class ContactSolver:
             t0 = time.perf_counter()
             chunk = [self.problem.with_loads(s) for s in scenes[len(out):len(out) + BATCH]]
             each = (time.perf_counter() - t0) / len(chunk)
-            t1 = time.perf_counter()
             while chunk and not self._cache.prepare(chunk):    # nothing kept (yet, or ever on this route): one
                 out.append(self._solve(chunk.pop(0), each))    # alone, its problem derived once
-                t1 = time.perf_counter()
             if chunk:
-                self._setup["batched_sweeps"] = time.perf_counter() - t1
                 out.extend(self._solve_batch(chunk, each))
         return out
 
@@ -270,7 +269,8 @@ class ContactSolver:
                 runs.append((problem, *self._run(problem, loads)))
         finally:
             spent = condensation.flush()
-        runs[0][2]["batched_backward"] = spent
+        runs[0][2]["batched_sweeps"] = condensation.swept        # (within the interface_load of the route that
+        runs[0][2]["batched_backward"] = spent                   # asked first: the first load case's)
         for _, raw, _ in runs:                          # the fields the flush made (Held lists): plain lists
             raw.u, raw.phi = list(raw.u), list(raw.phi)
         out = []

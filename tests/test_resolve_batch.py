@@ -250,3 +250,19 @@ def test_fields_held_by_the_batch_refuse_to_be_read_before_they_are_made(monkeyp
     got = solver.solve_many(_cases(3))
     assert seen == [RuntimeError] * 3
     assert all(type(sol.u) is list and np.isfinite(_fields(sol)).all() for sol in got)
+
+
+def test_after_a_fallback_to_a_route_without_sweeps_solve_many_makes_none():
+    """The batch's forward sweeps are made when a route first asks for one: a solver moved to the sparse route
+    (as a fallback moves it, ContactSolver._fallback) keeps its condensation but sweeps nothing on it, and answers
+    as a fresh sparse solver (fields measured 2.4e-15 relative, 2.6e-15 under Nehalem; asserted to 1e-12)."""
+    solver = cc.ContactSolver(two_blocks(), method="condensed")
+    solver.solve()
+    solver.method = "sparse"                                       # (what a passing fallback sets)
+    forward, backward = _sweeps(solver), _sweeps(solver, "backward")
+    scenes = _cases(3, start=20)
+    many = solver.solve_many(scenes)
+    assert forward == [[], []] and backward == [[], []]
+    for sol, scene in zip(many, scenes):
+        assert sol.ok
+        assert rel(_fields(sol), _fields(cc.ContactSolver(scene, method="sparse").solve())) < 1e-12

@@ -48,6 +48,8 @@ class Condensation:
         self.sweeps = None
         self._loaded = [None] * len(self.bodies)   # per body (F, its forward sweep) of the last load case
         self._batched = [[] for _ in self.bodies]  # per body [(F, its forward sweep)] of the prepared load cases
+        self._pending = [[] for _ in self.bodies]  # per body [F] of the prepared load cases, not yet swept
+        self.swept = 0.0                           # seconds of the batched sweeps made since the last prepare
         self._deferred = None          # [((u, phi) Held, sweeps, v, blocks)] of the held backward sweeps (defer)
         self.psd_factors = {}          # factors of W on sets of nodes (cuts.psd_factor), shared by the solves
         timings["factorization"] = time.perf_counter() - t0
@@ -86,6 +88,8 @@ class Condensation:
         sweep = self._last(k, F)
         if sweep is not None:
             return sweep
+        if any(np.array_equal(G, F) for G in self._pending[k]):
+            self._sweep_batch(k)
         sweep = next((s for G, s in self._batched[k] if np.array_equal(G, F)), None)
         if sweep is None:
             sweep = self.bodies[k].forward(F)
@@ -100,14 +104,16 @@ class Condensation:
     def prepare(self, problems) -> None:
         """Batch the forward sweeps of the load cases ``problems`` (problems of this geometry and contact rows):
         per body, one sweep of all their distinct scaled loads as the columns of one right-hand side (each
-        factor read once for all of them: the sweeps are bound by reading the factors), kept until :meth:`flush`
-        ends the batch for :meth:`forward`, which takes a load's sweep from here when its F is bit for bit one of
-        them. A batched sweep gives the single sweep's numbers to rounding (the adapters' multi-column kernels sum
-        in another order). Kept: a copy of each load and its sweep (16 bytes per unknown of the body and load
-        case). A body whose factors were freed (:class:`~cvxcontact.backends.released.Released`) sweeps one load
-        at a time."""
+        factor read once for all of them: the sweeps are bound by reading the factors), made when :meth:`forward`
+        first asks for one of them (a route that sweeps nothing, e.g. the sparse route a fallback moved the solver
+        to, makes none) and kept until :meth:`flush` ends the batch; :meth:`forward` takes a load's sweep from here
+        when its F is bit for bit one of them. A batched sweep gives the single sweep's numbers to rounding (the
+        adapters' multi-column kernels sum in another order). Kept: a copy of each load and its sweep (16 bytes
+        per unknown of the body and load case). A body whose factors were freed
+        (:class:`~cvxcontact.backends.released.Released`) sweeps one load at a time."""
+        self.swept = 0.0
         for k, c in enumerate(self.bodies):
-            self._batched[k] = []
+            self._batched[k], self._pending[k] = [], []
             if isinstance(c.factor, Released):
                 continue
             loads: list = []
@@ -115,11 +121,16 @@ class Condensation:
                 F = np.asarray(quasi_definite_rhs(p.blocks[k]), dtype=float)
                 if self._last(k, F) is None and not any(np.array_equal(G, F) for G in loads):
                     loads.append(F)
-            if len(loads) < 2:                    # one load: the single sweep, as solve() makes it
-                continue
-            sweep = c.forward(np.column_stack(loads))
-            self._batched[k] = [(F, Forward(sweep.reduced[:, j].copy(), sweep.state[:, j]))
-                                for j, F in enumerate(loads)]
+            if len(loads) >= 2:                   # one load: the single sweep, as solve() makes it
+                self._pending[k] = loads
+
+    def _sweep_batch(self, k) -> None:
+        """Body k's forward sweep of the loads :meth:`prepare` kept, as the columns of one right-hand side."""
+        t0 = time.perf_counter()
+        loads, self._pending[k] = self._pending[k], []
+        sweep = self.bodies[k].forward(np.column_stack(loads))
+        self._batched[k] = [(F, Forward(sweep.reduced[:, j].copy(), sweep.state[:, j])) for j, F in enumerate(loads)]
+        self.swept += time.perf_counter() - t0
 
     def invert(self, problem, y, timings):
         """(u, phi) of every body under the contact forces ``y`` on the rows of the last :meth:`apply`."""
@@ -202,6 +213,7 @@ class Condensation:
                     self.sweeps = [own if s is last[1] else s for s in self.sweeps]
                 self._loaded[k] = (last[0], own)
         self._batched = [[] for _ in self.bodies]
+        self._pending = [[] for _ in self.bodies]
         return time.perf_counter() - t0
 
     def invert_gamma(self, problem, v, timings):

@@ -106,6 +106,7 @@ class Block:
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
+    absolute: dict = field(default_factory=dict, repr=False, compare=False)   # |K|'s values (:meth:`abs_values`)
 
     def __post_init__(self):
         for name in ("Kuu", "jump", "Kup", "Kpp"):          # canonical and read-only: a solve cannot reorder them
@@ -162,6 +163,30 @@ class Block:
         self.products[key] = (K, np.array(z, dtype=float), out)
         return out
 
+    def abs_values(self, name: str) -> tuple:
+        """(M, |M|'s values): M the matrix ``name`` ("Kuu", "Kup", "Kpp"; "KupT": Kup^T, a CSC view of Kup's
+        arrays; "jump": |jump|^T, the small matrix itself) and np.abs of its stored values (read-only), built when
+        first asked and kept while the matrix is the same object. A load case's blocks share this store
+        (:meth:`with_loads` keeps it: the same matrices), so |K| is formed once per problem, not per check: 8 bytes
+        per stored entry of Kuu, Kup and Kpp (Kup^T reads Kup's), sharing K's index arrays."""
+        source = self.Kup if name == "KupT" else getattr(self, name)
+        kept = self.absolute.get(name)
+        if kept is None or kept[0] is not source:
+            if name == "jump":
+                M = abs(source).T                               # as abs(jump).T (the same numbers)
+                values = M.data
+            else:
+                M = source.T if name == "KupT" else source
+                values = self.abs_values("Kup")[1] if name == "KupT" else np.abs(source.data)
+            values.setflags(write=False)
+            kept = self.absolute[name] = (source, M, values)
+        return kept[1], kept[2]
+
+    def _abs_times(self, name: str, z) -> np.ndarray:
+        """|M| |z| of the matrix ``name`` (:meth:`abs_values`): :func:`abs_product` on the kept values."""
+        M, values = self.abs_values(name)
+        return abs_product(M, z, values)
+
     def loads(self):
         """The right-hand side [f; q] of (26)."""
         return self.f, (self.q if self.q is not None else np.zeros(0))
@@ -169,12 +194,12 @@ class Block:
     def magnitude(self, u, phi, contact_force):
         """Row scales of (26) for this body: |A| |x| + |F| + |J^T| |c|, the sizes of the terms each
         residual row balances (momentum rows, Gauss rows)."""
-        cu = abs(self.jump).T @ np.abs(contact_force) + np.abs(self.f)
-        au = self.bulk.magnitude(u) + cu
+        cu = self.abs_values("jump")[0] @ np.abs(contact_force) + np.abs(self.f)
+        au = (self._abs_times("Kuu", u) if self._linear else self.bulk.magnitude(u)) + cu
         if self.Kpp is None:
             return au, np.zeros(0)
-        au = au + abs_product(self.Kup, phi)             # (no copies of the matrices: abs_product)
-        return au, abs_product(self.Kpp, phi) + abs_product(self.Kup.T, u) + np.abs(self.q)
+        au = au + self._abs_times("Kup", phi)            # (|K|'s values kept: abs_values)
+        return au, self._abs_times("Kpp", phi) + self._abs_times("KupT", u) + np.abs(self.q)
 
     def residual(self, u, phi, contact_force):
         """Residual of (26) for this body: rows of the momentum and of the Gauss equations."""

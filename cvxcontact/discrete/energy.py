@@ -37,29 +37,32 @@ STATES = 3
 """The points whose strains and stresses :class:`StrainEnergy` keeps (the most recently asked)."""
 
 
-def abs_product(K, z) -> np.ndarray:
+def abs_product(K, z, absolute: np.ndarray | None = None) -> np.ndarray:
     """|K| |z| (entrywise absolute values) of a sparse matrix: the sizes of the terms of K z, without the copy of K
     that abs(K) makes (its transient was the peak of a large 3D solve's checks). A canonical CSR matrix goes by
     blocks of ROWS rows, each row summed as in abs(K) @ np.abs(z) (the same numbers); a canonical CSC matrix by
     blocks of ROWS columns, their products added (the same terms, all non-negative: with one block the same
     numbers, else each row's sum differs from abs(K) @ np.abs(z) by rounding, below its number of terms times
-    eps relative); any other, as abs(K) @ |z|."""
+    eps relative); any other, as abs(K) @ |z|. ``absolute``: ``np.abs(K.data)`` if kept (:meth:`~cvxcontact.
+    discrete.blocks.Block.abs_values`: a problem's matrices are read-only), read in place of the blocks' own
+    absolute values (the same numbers, the same products)."""
     z = np.abs(z)
     if not (sp.issparse(K) and K.format in ("csr", "csc") and K.has_canonical_format):
         return abs(K) @ z
+    values = (lambda a, b: np.abs(K.data[a:b])) if absolute is None else (lambda a, b: absolute[a:b])
     rows, cols = K.shape
     if K.format == "csc":
         out = np.zeros(rows, dtype=np.result_type(K.dtype, z.dtype))
         for c in range(0, cols, ROWS):
             a, b = K.indptr[c], K.indptr[min(c + ROWS, cols)]
-            block = _on(sp.csc_matrix, (rows, min(ROWS, cols - c)), np.abs(K.data[a:b]), K.indices[a:b],
+            block = _on(sp.csc_matrix, (rows, min(ROWS, cols - c)), values(a, b), K.indices[a:b],
                         K.indptr[c:c + ROWS + 1] - a)
             out += block @ z[c:c + ROWS]
         return out
     out = np.empty(rows, dtype=np.result_type(K.dtype, z.dtype))
     for r in range(0, rows, ROWS):
         a, b = K.indptr[r], K.indptr[min(r + ROWS, rows)]
-        block = _on(sp.csr_matrix, (min(ROWS, rows - r), cols), np.abs(K.data[a:b]), K.indices[a:b],
+        block = _on(sp.csr_matrix, (min(ROWS, rows - r), cols), values(a, b), K.indices[a:b],
                     K.indptr[r:r + ROWS + 1] - a)
         out[r:r + ROWS] = block @ z
     return out

@@ -87,13 +87,14 @@ class RowReach:
             A = abs(E @ b.jump).tocsr()
             at = np.flatnonzero(np.diff(A.tocsc().indptr))            # the unknowns the rows read
             Kup = getattr(b, "Kup", None)
-            self._bodies.append((A, at, b.Kuu.tocsr()[at], None if Kup is None else abs(Kup.tocsr()[at]),
+            K = b.Kuu.tocsr()[at]
+            self._bodies.append((A, at, K, np.abs(K.data), None if Kup is None else abs(Kup.tocsr()[at]),
                                  inverse_diagonal(b.Kuu)[at]))
 
     def _forces(self, u, phi):
         """Per body (|E J_l|, the unknowns it reads, |Kuu_l| |u_l| + |Kup_l| |phi_l| there, 1 / diag Kuu_l there)."""
-        for k, ((A, at, K, Kp, inverse), uk) in enumerate(zip(self._bodies, u)):
-            f = abs_product(K, uk)
+        for k, ((A, at, K, Kabs, Kp, inverse), uk) in enumerate(zip(self._bodies, u)):
+            f = abs_product(K, uk, Kabs)                            # (|K|'s values kept: the same numbers)
             pk = None if phi is None else phi[k]
             if pk is not None and Kp is not None:
                 f = f + Kp @ np.abs(pk)

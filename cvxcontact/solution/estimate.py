@@ -49,7 +49,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..fem.assembly import VOIGT, frozen, gradients, voigt_strains
+from ..errors import frozen
+from ..fem.assembly import VOIGT, gradients, voigt_strains
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys

@@ -150,9 +150,9 @@ def test_amg_does_not_take_2d_scenes():
 
 def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch):
     """Set-picking (loose) solves that return a wrong answer, the same whatever the set (x = 0, y = -1: every
-    row's sign fails and the next set is always the same), make the steps cycle on the PZT box on aluminium;
-    the route retries from the last set on tight solves and still returns the sparse route's answer, without
-    handing over."""
+    row's sign fails and the next set is always the same), make the steps cycle on the PZT box on aluminium,
+    and cycle again when retried on the tighter loose stages (``amg.RETRIES``); the route retries from the last
+    set on tight solves and still returns the sparse route's answer, without handing over."""
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
@@ -173,8 +173,39 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
     monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loose)
     scene = two_boxes(6)
     a = cc.solve(scene, method="amg")
-    assert seen == ["CYCLE", "settled"] and a.info.method == "amg" and a.ok
+    assert seen == ["CYCLE", "CYCLE", "settled"] and a.info.method == "amg" and a.ok
     fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)             # measured 9.7e-11 (Krylov to 1e-10)
+
+
+def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose_stages(monkeypatch):
+    """Wrong answers from the two loosest stages only (1e-1, 1e-2; x = 0, y = -1, whatever the set) make the
+    steps cycle; the retry runs the tighter loose stages (1e-4, 1e-6, ``amg.RETRIES``) before RTOL, not RTOL alone,
+    settles there, and returns the sparse route's answer without handing over."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    seen, tolerances = [], []
+    steps, system = amg.active_set_steps, amg.KrylovContact._system
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    def wrong_when_loosest(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        tolerances.append((len(seen), rtol))
+        if rtol > amg.STEP_RTOLS[2]:
+            return np.zeros(self.n), -np.ones(self.m)
+        return system(self, active, F, g, x_start, rtol, verdict)
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loosest)
+    scene = two_boxes(6)
+    a = cc.solve(scene, method="amg")
+    assert seen == ["CYCLE", "settled"] and a.info.method == "amg" and a.ok
+    retry = [rtol for attempt, rtol in tolerances if attempt == 1]
+    assert retry[0] == amg.STEP_RTOLS[2] and max(retry) <= amg.STEP_RTOLS[2] and amg.RTOL in retry
+    fields_agree(a, cc.solve(scene, method="sparse"), 2e-8)             # measured 1.3e-10 (5 kernels)
 
 
 def _electrodes_scene(n=6):

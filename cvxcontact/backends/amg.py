@@ -72,7 +72,7 @@ from .krylov import seeded as _seeded
 from .sparse import row_weights
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP", "Reduced", "SETTLE", "v_cycle"]
+           "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "v_cycle"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -103,6 +103,15 @@ iterations without it, 8 and 67 with it; 4.1e5: 11 and 89, 10 and 84, the same f
 (CG; tests/test_amg_route.py ``_elastic_boxes(1e9, n=16)``): 7 steps and 58 iterations, 5 and 38, where without
 it the loose steps cycled (a set's 1e-2 solve pointed to a set whose 1e-4 solve pointed back) and were retried
 on tight solves (benchmarks/results/bench3d_scale.md)."""
+
+RETRIES = (STEP_RTOLS, STEP_RTOLS[2:], ())
+"""The loose stages (:data:`STEP_RTOLS`) of the active-set steps, then of their retries, each followed by RTOL: steps
+that cycle on loose solves (a set's loose answer points to a set already seen) are retried from the last set on
+the tighter loose stages (1e-4, 1e-6), then, if they cycle again, on tight solves alone (a retry that cycles on
+those hands the problem to the sparse route). Measured on two_boxes "sigma1" at 366,062 unknowns (n = 52,
+``bench3d.py --sizes 4e5``): 2391 rows closed at 1e-2 pointed to 2390, whose 1e-4 solve (2 iterations, settled)
+pointed back; retried on tight solves, 2390 and then 2391 took 47 and 44 Krylov iterations, 118 in all; retried on
+(1e-4, 1e-6) first, 2 + 8 + 13 + 28, 78 in all, the same final set (benchmarks/results/bench3d_scale.md)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
 
@@ -540,8 +549,8 @@ class KrylovContact:
     def solve(self, F, g, active, max_iter: int = 50):
         """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
         ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
-        if the steps cycle (on loose solves, they are retried from the last set on tight ones) or a Krylov
-        solve misses its tolerance."""
+        if the steps cycle (on loose solves, they are retried from the last set on tighter ones, :data:`RETRIES`)
+        or a Krylov solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
         self._stacked()                          # dropped after the last solve: the same blocks stacked again
         movable = self.dof >= 0
@@ -571,8 +580,8 @@ class KrylovContact:
                     return (x, y), new
             return (x, y), None
 
-        for stages in (STEP_RTOLS + (RTOL,), (RTOL,)):   # steps that cycle on loose solves: retried on tight ones
-            out = active_set_steps(lambda a: step(a, stages), last[0], max_iter)
+        for loose in RETRIES:                    # steps that cycle on loose solves: retried on tighter ones
+            out = active_set_steps(lambda a: step(a, loose + (RTOL,)), last[0], max_iter)
             if not isinstance(out, Declined) or out.stop is Stop.SINGULAR:
                 break
         self._reduction = None

@@ -164,3 +164,27 @@ def test_the_coarse_start_is_the_one_from_the_formed_matrix(monkeypatch):
         starts.append(sc.coarse_start(F, g))
     assert same(forces[0], forces[1]) and (forces[0] > 0).any() and (forces[0] == 0).any()
     assert same(starts[0], starts[1]) and used == [False, False, True, True]
+
+
+def test_a_rewrite_stopped_half_way_is_not_kept(route, monkeypatch):
+    """An exception (an interrupt) between the couplings' and the diagonals' rewrite of MixedPattern.kept: the
+    half-rewritten buffer is dropped, and the next call (here back to the set before) is the new matrix, not one
+    with the other set's couplings and this set's diagonals (its check would then read a wrong |K(A)| silently)."""
+    sc, _ = route
+    pattern = sc.pattern
+    before, after = np.arange(sc.m) % 2 == 0, np.arange(sc.m) % 3 == 0
+    soft = np.zeros(sc.m)
+    for absolute in (False, True):
+        pattern.kept(before, soft, absolute)
+        real = pattern._set
+
+        def halfway(data, active, soft_, absolute_, couple, rows):
+            data[couple] = np.where(active[pattern.rid[couple]], pattern.vals[couple], 0.0)    # couplings only
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(pattern, "_set", halfway)
+        with pytest.raises(KeyboardInterrupt):
+            pattern.kept(after, soft, absolute)
+        monkeypatch.setattr(pattern, "_set", real)
+        assert same(pattern.kept(before, soft, absolute).data, pattern.matrix(before, soft, absolute).data)
+        assert same(pattern.kept(after, soft, absolute).data, pattern.matrix(after, soft, absolute).data)

@@ -112,6 +112,7 @@ class MixedPattern:
         active = np.asarray(active, dtype=bool)
         state = self._kept.pop(absolute, None)
         if state is None or not np.array_equal(state[1], soft):
+            state = None                    # (the old buffer freed before the new one is made)
             K = self.matrix(active, soft, absolute)
             self._kept[absolute] = [active.copy(), np.array(soft, dtype=float), K]
             return K

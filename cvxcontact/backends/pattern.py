@@ -107,9 +107,12 @@ class MixedPattern:
         """:meth:`matrix` on a buffer kept between calls (one for K, one for |K|), only the couplings and diagonals
         of the rows whose state changed since the last call rewritten: the same values (the same expressions), no
         copy of the 1.6e6 entries per system on thin_layer(3000) (the two buffers stay held: 26 MB there). A matrix it
-        returned before is this one, rewritten."""
-        state = self._kept.get(absolute)
+        returned before is this one, rewritten. The buffer is no one's while it is rewritten: an exception half-way
+        (an interrupt) drops it, and the next call builds a new one (rather than trusting rows half rewritten)."""
+        active = np.asarray(active, dtype=bool)
+        state = self._kept.pop(absolute, None)
         if state is None or not np.array_equal(state[1], soft):
+            state = None                    # (the old buffer freed before the new one is made)
             K = self.matrix(active, soft, absolute)
             self._kept[absolute] = [active.copy(), np.array(soft, dtype=float), K]
             return K
@@ -121,4 +124,5 @@ class MixedPattern:
             couple = pos[np.repeat(ptr[rows] - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())]
             self._set(K.data, active, soft, absolute, couple, rows)
             last[:] = active
+        self._kept[absolute] = state
         return K

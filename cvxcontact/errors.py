@@ -53,8 +53,8 @@ class ResidualWarning(UserWarning):
 
 class FixedPointWarning(UserWarning):
     """A fixed point (Coulomb friction's, on the slip thresholds) stopped at its iteration limit before its
-    tolerance: the answer is its iterate of smallest change, and its checks say how far it is from the law. The message says
-    the change reached and what to do (more iterations, a smaller coefficient, a finer load step)."""
+    tolerance: the answer is its iterate of smallest change, and its checks say how far it is from the law. The
+    message says the change reached and what to do (more iterations, a smaller coefficient, a finer load step)."""
 
 
 class ResolutionWarning(UserWarning):
@@ -193,9 +193,10 @@ def frozen(A: sp.spmatrix | None) -> sp.spmatrix | None:
 def frozen_pattern(A: sp.spmatrix) -> sp.spmatrix:
     """``A`` (CSR/CSC) with its pattern read-only, in place: ``indices`` and ``indptr`` (not its values, nor put
     in canonical form). For matrices that share one pattern across many values (a strain energy's Hessians; the
-    sparse route's K(A) for every active set locks its raw arrays likewise, backends.pattern.MixedPattern): a caller's in-place change of the pattern (``eliminate_zeros``,
-    ``sort_indices`` of an unsorted one, ``indices[...] = ...``) raises (ValueError) instead of changing the
-    sparsity under the other matrices and the places kept for those arrays. Returns ``A``."""
+    sparse route's K(A) for every active set locks its raw arrays likewise, backends.pattern.MixedPattern): a
+    caller's in-place change of the pattern (``eliminate_zeros``, ``sort_indices`` of an unsorted one,
+    ``indices[...] = ...``) raises (ValueError) instead of changing the sparsity under the other matrices and the
+    places kept for those arrays. Returns ``A``."""
     A.indices.flags.writeable = False
     A.indptr.flags.writeable = False
     return A

@@ -32,8 +32,8 @@ def test_tresca_strips_and_floor_warn_once_naming_pairs_part_nodes_and_area_2d()
     """Strips x < 0.7, x >= 0.3 and a whole floor under the 4 x 2 layer (nodes at x = 0, 0.25, ..., 1): every
     bottom node is reached by two or three of them (the floor and a strip; all three at x = 0.5), weights 1 m
     summed (the bottom's length), the largest capacity 3 g."""
-    found, solver = overlap_warnings(lambda: cc.ContactSolver(uniform_layer(0.2 * P, cc.Tresca(G), obstacles=THREE_2D),
-                                                              "sigma1"))
+    scene = uniform_layer(0.2 * P, cc.Tresca(G), obstacles=THREE_2D)
+    found, solver = overlap_warnings(lambda: cc.ContactSolver(scene, "sigma1"))
     assert len(found) == 1
     m = found[0]
     assert "contact part 'bottom'" in m and all(f"contacts[{i}]" in m for i in range(3))
@@ -79,7 +79,8 @@ def test_a_single_shared_end_node_counts():
     """Lines x <= 0.4 and x >= 0.4 both reach the node x = 0.4 of the 5 x 2 layer: each row there weighs the
     node's whole hat (0.2 m: the law's weights over the whole part), so the capacity on it is 2 g w: warned, one
     node, 0.2 m."""
-    scene = uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=(line(-1.0, 0.4, tol=1e-9), line(0.4, 2.0, tol=1e-9)))
+    meet = (line(-1.0, 0.4, tol=1e-9), line(0.4, 2.0, tol=1e-9))
+    scene = uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=meet)
     found, _ = overlap_warnings(lambda: cc.ContactSolver(scene, "sigma1"))
     assert len(found) == 1 and "reach 1 of its nodes" in found[0] and "summing to 0.2 m)" in found[0]
 
@@ -90,7 +91,7 @@ def test_coulomb_frictionless_and_a_single_floor_do_not_warn():
                  lambda: block2d(THREE_2D),
                  lambda: uniform_layer(0.2 * P, cc.Tresca(G), obstacles=(FLOOR,)),
                  lambda: uniform_layer3d(0.2 * P, cc.Tresca(G), n=3, obstacles=(FLOOR3D,))):
-        found, _ = overlap_warnings(lambda: cc.ContactSolver(make(), "sigma1"))
+        found, _ = overlap_warnings(lambda make=make: cc.ContactSolver(make(), "sigma1"))
         assert found == []
 
 

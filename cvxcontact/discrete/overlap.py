@@ -41,7 +41,7 @@ def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
     comparison of the pairs' nodes)."""
     stack, rows, E = lines.interface, lines.rows, lines.E
     pairs = getattr(stack, "interfaces", ())
-    if len(pairs) < 2 or not rows.friction or E.shape[0] != rows.size:
+    if len(pairs) < 2 or E.shape[0] != rows.size:
         return []
     g = np.where(rows.pressure_dependent, 0.0, rows.thresholds(0.0))          # Pa: the given thresholds
     row_at = np.concatenate([[0], np.cumsum(rows.counts)])
@@ -63,6 +63,8 @@ def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
         thr.append(g[r0 + a])
         wt.append(weights[r0 + a])
     side, node, pair, thr, wt = (np.concatenate(v) for v in (sides, node, pair, thr, wt))
+    if len(node) == 0:
+        return []
     # one entry per (side, node, pair): the rows of one pair at a node counted once
     order = np.lexsort((pair, node, side))
     side, node, pair, thr, wt = side[order], node[order], pair[order], thr[order], wt[order]
@@ -96,10 +98,11 @@ def warn_overlapping_thresholds(scene, lines, condition) -> list[dict]:
         warnings.warn(
             f"given friction thresholds overlap on {scene.bodies[k].name}'s contact part {part!r}: the pairs {named} "
             f"reach {n} of its nodes together (two or more of them at each; the nodes' weights summing to "
-            f"{o['area']:.6g} {unit}), where their friction capacities add (g1 + g2 + ...): the slip there is resisted by up to {o['threshold']:.6g} Pa, not the "
-            f"{o['single']:.6g} Pa of one pair (the normal forces, and Coulomb's capacity mu lambda, are shared "
-            "between the pairs; a given threshold is each pair's own). If the obstacles are meant as one surface, "
-            "split them so that each node is reached by one pair with a threshold (or give the overlap to one "
-            "pair); two layers that are meant to add may be kept",
+            f"{o['area']:.6g} {unit}), where their friction capacities add (g1 + g2 + ...): the slip there is "
+            f"resisted by up to {o['threshold']:.6g} Pa, not the {o['single']:.6g} Pa of one pair (the normal "
+            "forces, and Coulomb's capacity mu lambda, are shared between the pairs; a given threshold is each "
+            "pair's own). If the obstacles are meant as one surface, split them so that each node is reached by "
+            "one pair with a threshold (or give the overlap to one pair); two layers that are meant to add may be "
+            "kept",
             OverlapWarning, stacklevel=user_stacklevel())
     return found

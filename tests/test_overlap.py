@@ -9,7 +9,7 @@ import warnings
 import numpy as np
 import pytest
 from friction_scenes import FLOOR, FLOOR3D, L, P, pushed, uniform_layer, uniform_layer3d
-from reach_scenes import block2d, line, strip
+from reach_scenes import block2d, line, lowered, strip
 
 import cvxcontact as cc
 
@@ -146,3 +146,19 @@ def test_two_coincident_coulomb_floors_share_the_capacity():
     assert found == [] and sol.ok
     total = sum(np.asarray(c.shear_force).sum() for c in sol.contacts)
     assert total == pytest.approx(-mu * P * L, rel=1e-12)                 # measured 3.4e-15 (5 kernel sets)
+
+
+@pytest.mark.numerics
+def test_a_tresca_floor_never_touched_still_adds_its_capacity():
+    """A floor 3e-6 m below the one the block slides on reaches every node (its distance is finite) and is never
+    touched (lambda 0), yet its Tresca capacity g L resists the slide as well (Tresca's does not ask for contact):
+    the warning names it, each pair's friction is -g L."""
+    g = 1e3
+    found, sol = overlap_warnings(lambda: cc.solve(pushed(cc.Tresca(g), obstacles=(FLOOR, lowered(-1.0, 2.0, 2)))[1],
+                                                   "sigma1"))
+    assert len(found) == 1 and "reach 9 of its nodes" in found[0]
+    assert sol.ok
+    top, low = sol.contacts
+    assert np.abs(low.lam).max() == 0.0 and top.lam.max() > 0.9 * P                     # measured 0, 1.0008 p
+    for c in (top, low):                                                                # measured exact
+        assert np.asarray(c.shear_force).sum() == pytest.approx(-g * L, rel=1e-12)

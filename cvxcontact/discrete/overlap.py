@@ -45,7 +45,8 @@ def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
         return []
     g = np.where(rows.pressure_dependent, 0.0, rows.thresholds(0.0))          # Pa: the given thresholds
     row_at = np.concatenate([[0], np.cumsum(rows.counts)])
-    candidates = [i for i, p in enumerate(pairs) if p.rigid and (g[row_at[i]:row_at[i + 1]] > 0).any()]
+    candidates = [i for i, p in enumerate(pairs)
+                  if getattr(p, "rigid", False) and (g[row_at[i]:row_at[i + 1]] > 0).any()]
     if len(candidates) < 2:
         return []
     weights = friction_weights(lines, condition, conditions)

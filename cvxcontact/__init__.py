@@ -91,7 +91,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .contact.interface import CONDITIONS
     from .contact.laws import Coulomb, NormalCompliance, Signorini, Tresca
     from .errors import (CvxContactError, FixedPointWarning, FrozenError, MaterialError, MeshError, NonUniqueWarning,
-                         OverlapWarning, ResidualWarning, ResolutionWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
+                         OverlapWarning, ResidualWarning, ResolutionWarning, SceneError, SolverError,
+                         SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .apps.sweep.load import CaseArrays, SweepResults, load_sweep

@@ -24,7 +24,8 @@ _logging.getLogger(__name__).addHandler(_logging.NullHandler())   # the library 
 _WHERE = {
     "materials": (".physics", "materials"), "CONDITIONS": (".contact.interface", "CONDITIONS"),
     "CvxContactError": (".errors", None), "MaterialError": (".errors", None), "MeshError": (".errors", None),
-    "ResidualWarning": (".errors", None), "ResolutionWarning": (".errors", None), "FixedPointWarning": (".errors", None), "NonUniqueWarning": (".errors", None), "SceneError": (".errors", None),
+    "ResidualWarning": (".errors", None), "ResolutionWarning": (".errors", None), "FixedPointWarning": (".errors", None), "NonUniqueWarning": (".errors", None),
+    "OverlapWarning": (".errors", None), "SceneError": (".errors", None),
     "SolverError": (".errors", None),
     "Mesh": (".geometry.mesh", None), "read_mesh": (".geometry.mesh", None), "rectangle": (".geometry.mesh", None),
     "Body": (".physics.scene", None), "Scene": (".physics.scene", None),
@@ -51,7 +52,7 @@ __all__ = [
     "Body", "Scene", "Contact", "Rigid", "Signorini", "NormalCompliance", "Tresca", "Coulomb",
     "solve", "error_bound", "force_estimate", "ForceEstimate", "adapt", "Adapted", "AdaptStep", "ContactSolver", "Solution", "ContactResult", "Model", "SolveInfo", "Status", "Route", "Finish",
     "CvxContactError", "MeshError", "MaterialError", "SceneError", "SolverError", "ResidualWarning", "ResolutionWarning", "FixedPointWarning",
-    "NonUniqueWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
+    "NonUniqueWarning", "OverlapWarning", "UnsupportedError", "FrozenError", "load_sweep", "SweepResults", "SweepResultsError",
     "CaseArrays",
 ]
 
@@ -90,7 +91,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs: the same names, imported eagerl
     from .contact.interface import CONDITIONS
     from .contact.laws import Coulomb, NormalCompliance, Signorini, Tresca
     from .errors import (CvxContactError, FixedPointWarning, FrozenError, MaterialError, MeshError, NonUniqueWarning,
-                         ResidualWarning, ResolutionWarning, SceneError, SolverError, SweepResultsError, UnsupportedError)
+                         OverlapWarning, ResidualWarning, ResolutionWarning, SceneError, SolverError,
+                         SweepResultsError, UnsupportedError)
     from .physics.pairs import Contact, Rigid
     from .geometry.generators import graded_block, half_disk
     from .apps.sweep.load import CaseArrays, SweepResults, load_sweep

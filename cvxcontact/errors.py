@@ -72,6 +72,15 @@ class NonUniqueWarning(UserWarning):
     the other translations are the same for every solution. The message names the direction."""
 
 
+class OverlapWarning(UserWarning):
+    """Friction capacities that do not scale with a pair's own normal force (a given threshold: ``cc.Tresca``)
+    add where several obstacle pairs reach the same node of one body's contact part: the slip there is resisted
+    by g1 + g2 (times the node's weight), not by one threshold, while the normal forces (and Coulomb's capacity
+    mu lambda) are shared between the pairs. Raised when the problem is derived (before the solve), once per
+    problem; a warning, not a refusal (overlapping thresholds may be meant). The message names the pairs, the
+    part, the nodes and the area (length in 2D) where they overlap, the summed threshold and the fix."""
+
+
 def user_stacklevel() -> int:
     """The ``stacklevel`` of ``warnings.warn`` called where this is called that names the first frame outside the
     cvxcontact package: the user's line, however many of the package's calls lie between (``cvxcontact.solve``,

@@ -46,11 +46,12 @@ def uniform_layer(tau, law, nx=4, ny=2, obstacles=(FLOOR,)):
     return cc.Scene(b, contacts=[cc.Contact(b, "bottom", o, law=law) for o in obstacles])
 
 
-def pushed(law, s=1e-4):
-    """The nu = 0 block pushed by u_x = s on its left face, pressed by p: (its mesh, the scene)."""
+def pushed(law, s=1e-4, obstacles=(FLOOR,)):
+    """The nu = 0 block pushed by u_x = s on its left face, pressed by p: (its mesh, the scene); ``law`` against
+    the floor (or against each of ``obstacles``, one pair each: two coincident floors overlap)."""
     m = cc.rectangle(x=(0.0, L), y=(0.0, H), nx=8, ny=4)
     b = cc.Body(m, steel(nu=0.0), contact="bottom", traction={"top": (0.0, -P)}, displacement={"left": (s, None)})
-    return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
+    return m, cc.Scene(b, contacts=[cc.Contact(b, "bottom", o, law=law) for o in obstacles])
 
 
 def patch(law, tied=False, nx=8, ny=4):

@@ -33,7 +33,10 @@ from cvxcontact.fem.simplex import simplex_rule
 from cvxcontact.solution import contactestimate
 
 pytestmark = [pytest.mark.numerics,
-              pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]
+              pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning"),
+              # Tresca layers stuck on obstacles that overlap (or both reach x = 0.5): the summed capacities are
+              # not reached, the answer is the single floor's (tests/test_overlap.py: the warning itself)
+              pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")]
 
 ONE_2D = (line(-1.0, 2.0),)
 SPLITS_2D = {"x = 1/3": (line(-1.0, 1 / 3), line(1 / 3, 2.0)),                  # 1/3 a vertex only the second reaches

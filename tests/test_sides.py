@@ -162,6 +162,7 @@ def _summed_t_h(sol) -> np.ndarray:
     return np.array(list(total.values()))
 
 
+@pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")     # stuck: the summed Tresca capacity unused
 def test_friction_t_h_read_once_per_side(layer_on_strips):
     """A friction law's t_h on 3D P2 faces is read once per side as lambda_h is: the pairs' t_h summed at each node
     of the bottom is the uniform shear -tau (the first body's sigma n, closed form). Each pair the representer of its
@@ -183,6 +184,7 @@ def test_friction_t_h_of_a_pair_alone_is_its_own():
     assert not c.shear_multiplier.flags.writeable                     # read-only, as the read-back's other fields
 
 
+@pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")     # stuck: the summed Tresca capacity unused
 @pytest.mark.parametrize("order", ["strip first", "floor first"])
 def test_tresca_t_h_shared_with_a_pair_open_everywhere(order):
     """The P2 layer stuck under Tresca 2 p on the floor and a strip x < 0.5 3e-6 below it (never touched): Tresca's

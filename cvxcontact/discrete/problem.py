@@ -32,6 +32,7 @@ from ..fem.space import ContactLines, Space
 from ..physics.fingerprint import geometry_fingerprint
 from ..physics.scene import Scene
 from .blocks import Block, Units, units
+from .overlap import warn_overlapping_thresholds
 from .terms import ContactTerm, contact_term
 
 __all__ = ["DiscreteProblem", "build_problem"]
@@ -358,6 +359,9 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
                               tuple(geometry_fingerprint(b) for b in scene.bodies),
                               _shared=previous._shared if previous is not None else {})
     check_reachable(problem)
+    # given friction thresholds of several obstacles on one node add up: warned once per problem (and per set of
+    # rows: a moved obstacle's new rows are checked again), before the solve
+    problem.shared("overlapping thresholds", lambda: warn_overlapping_thresholds(scene, lines, condition), rows=True)
     return problem
 
 

@@ -1,0 +1,109 @@
+"""Given friction thresholds that overlap (docs/howto/friction.md, "Obstacles that overlap"): where several
+obstacle pairs with a friction capacity that does not scale with the pair's own normal force (``cc.Tresca``:
+its threshold g is given) reach the same node of one body's contact part, each pair's row there weighs the
+node's whole hat over the part (the law's weights, docs/formulation.md §10), so the discrete problem resists the
+slip there by (g1 + g2 + ...) w_a, not by one threshold. The normal forces are shared between such pairs (their
+sum at the node is fixed by the body's balance, :mod:`cvxcontact.solution.sides`) and so is Coulomb's capacity
+mu y_a (each pair's is mu times its own share of the node's force: they sum to mu times that force), so only a
+given threshold adds up. :func:`overlapping_thresholds` finds such nodes when the problem is derived and
+:func:`warn_overlapping_thresholds` says so with an :class:`~cvxcontact.errors.OverlapWarning` (a warning, not a
+refusal: two layers may be meant).
+
+A node shared by two obstacles at the end of their runs (strips x <= 0.4 and x >= 0.4, both reaching the node
+x = 0.4) counts: each row there weighs the node's whole hat, so the capacity on that hat is doubled too. Two-body
+pairs are not read: their rows weigh shares of their own overlap (pairs meeting at a node split its hat), and two
+bodies overlapping on one part would interpenetrate.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..errors import OverlapWarning, user_stacklevel
+from .slip import friction_weights
+
+__all__ = ["overlapping_thresholds", "warn_overlapping_thresholds"]
+
+_AT_NODE = 1.0 - 1e-9
+"""A row sits at a trace node where the node's interpolation weight is 1 (a P2 midpoint reads 1 - 1e-16)."""
+
+
+def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
+    """The overlaps of given friction thresholds on the contact lines ``lines`` (module docstring), one per
+    contact part where some node is reached by two or more obstacle pairs whose rows there have a given
+    threshold g > 0: a dict with ``side`` (scene body index, part), ``pairs`` (the pairs' indices among the
+    scene's contacts reaching an overlapped node), ``nodes`` (the body's node indices overlapped), ``area`` (m; m^2
+    in 3D: the nodes' weights summed), ``threshold`` (Pa: the largest sum of the thresholds at one of those
+    nodes) and ``single`` (Pa: the largest threshold of one of the pairs there). ``condition``, ``conditions``: the
+    solve's condition and each pair's own (None: the solve's). Vectorised over the rows (sorting, no pairwise
+    comparison of the pairs' nodes)."""
+    stack, rows, E = lines.interface, lines.rows, lines.E
+    pairs = getattr(stack, "interfaces", ())
+    if len(pairs) < 2 or E.shape[0] != rows.size:
+        return []
+    g = np.where(rows.pressure_dependent, 0.0, rows.thresholds(0.0))          # Pa: the given thresholds
+    row_at = np.concatenate([[0], np.cumsum(rows.counts)])
+    candidates = [i for i, p in enumerate(pairs)
+                  if getattr(p, "rigid", False) and (g[row_at[i]:row_at[i + 1]] > 0).any()]
+    if len(candidates) < 2:
+        return []
+    weights = friction_weights(lines, condition, conditions)
+    keys: dict = {}                                    # (scene body index, part) -> its index
+    sides, node, pair, thr, wt = [], [], [], [], []
+    for i in candidates:
+        itf, (r0, r1), (o0, o1) = pairs[i], row_at[i:i + 2], stack.offsets[i:i + 2]
+        trace = itf.traces[0]
+        at = (E[r0:r1, o0:o1] @ itf.interpolation(0)).tocoo()
+        keep = (at.data > _AT_NODE) & (g[r0 + at.row] > 0)
+        a, t = at.row[keep], at.col[keep]
+        sides.append(np.full(len(a), keys.setdefault((stack.members[i][0], trace.part), len(keys)), dtype=int))
+        node.append(np.asarray(trace.nodes)[t])
+        pair.append(np.full(len(a), i))
+        thr.append(g[r0 + a])
+        wt.append(weights[r0 + a])
+    side, node, pair, thr, wt = (np.concatenate(v) for v in (sides, node, pair, thr, wt))
+    if len(node) == 0:
+        return []
+    # one entry per (side, node, pair): the rows of one pair at a node counted once
+    order = np.lexsort((pair, node, side))
+    side, node, pair, thr, wt = side[order], node[order], pair[order], thr[order], wt[order]
+    new = np.r_[True, (np.diff(side) != 0) | (np.diff(node) != 0) | (np.diff(pair) != 0)]
+    side, node, pair, thr, wt = side[new], node[new], pair[new], thr[new], wt[new]
+    start = np.flatnonzero(np.r_[True, (np.diff(side) != 0) | (np.diff(node) != 0)])   # one group per node
+    count = np.diff(np.r_[start, len(node)])
+    summed, single, weight = (np.add.reduceat(thr, start), np.maximum.reduceat(thr, start),
+                              np.maximum.reduceat(wt, start))
+    shared = count > 1
+    on = np.repeat(shared, count)                                      # the entries at an overlapped node
+    names, found = list(keys), []
+    for s in np.unique(side[start[shared]]):
+        here = shared & (side[start] == s)
+        found.append({"side": names[s], "pairs": sorted(set(pair[on & (side == s)].tolist())),
+                      "nodes": node[start[here]], "area": float(weight[here].sum()),
+                      "threshold": float(summed[here].max()), "single": float(single[here].max())})
+    return found
+
+
+def warn_overlapping_thresholds(scene, lines, condition) -> list[dict]:
+    """Warn (:class:`~cvxcontact.errors.OverlapWarning`) once per contact part where given friction thresholds
+    of several obstacle pairs of ``scene`` overlap on ``lines`` under ``condition`` (:func:`overlapping_thresholds`,
+    module docstring); the overlaps found (empty: no warning)."""
+    found = overlapping_thresholds(lines, condition, scene.conditions)
+    unit = ("m", "m^2")[scene.dim - 2]
+    for o in found:
+        k, part = o["side"]
+        named = "; ".join(f"contacts[{i}] {scene.contacts[i]!r}" for i in o["pairs"])
+        n = len(o["nodes"])
+        warnings.warn(
+            f"given friction thresholds overlap on {scene.bodies[k].name}'s contact part {part!r}: the pairs {named} "
+            f"reach {n} of its nodes together (two or more of them at each; the nodes' weights summing to "
+            f"{o['area']:.6g} {unit}), where their friction capacities add (g1 + g2 + ...): the slip there is "
+            f"resisted by up to {o['threshold']:.6g} Pa, not the {o['single']:.6g} Pa of one pair (the normal "
+            "forces, and Coulomb's capacity mu lambda, are shared between the pairs; a given threshold is each "
+            "pair's own). If the obstacles are meant as one surface, split them so that each node is reached by "
+            "one pair with a threshold (or give the overlap to one pair); two layers that are meant to add may be "
+            "kept",
+            OverlapWarning, stacklevel=user_stacklevel())
+    return found

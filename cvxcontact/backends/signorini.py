@@ -231,7 +231,9 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     leads nowhere) or the previous active set (re-solve); where every start tried leads nowhere, from the coarse
     rows' answer whatever the size (measured: thin_layer(200) on a flat gap, and a thin clamped plate on a
     block with a crowned gap at 1,681 rows, where the steps from the bonded start cycle). Exact, no interior
-    point (``polish`` does not apply). ``iterations`` counts the systems solved."""
+    point (``polish`` does not apply). ``iterations`` counts the systems solved. A row a tighter parallel row implies
+    stays open (:func:`looser_rows`: two obstacles at one node); where the steps still do not settle, the condensed
+    route answers (:func:`_hand_over`, route ``SPARSE_HANDED_OVER``)."""
     from .sparse import COARSE_ROWS, SparseContact
 
     if dependent_rows(problem):
@@ -260,13 +262,28 @@ def sparse(problem, cache, settings, timings) -> RawResult:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time - f0
     timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time - f0)
     if out is None:
-        raise SolverError("the active-set steps on the sparse mixed system did not settle (they cycled or met "
-                          "a singular system); use method='condensed' or 'full'")
+        return _hand_over(problem, cache, settings, timings, "the active-set steps on the sparse mixed system did "
+                          "not settle (they cycled or met a singular system)")
     u, phi, y, active, steps = out
     cache.active = active
     return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="sparse",
                      route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="active set",
                      factorization=sc.factorization)
+
+
+def _hand_over(problem, cache, settings, timings, reason: str) -> RawResult:
+    """The condensed route's answer where the sparse route's steps stopped (``reason``), route
+    :attr:`~cvxcontact.backends.result.Route.SPARSE_HANDED_OVER`: a route the package has must not leave the call
+    failing. Not above :data:`~cvxcontact.backends.SPARSE_ROWS` rows (the condensed route's dense m x m interface
+    matrices, 0.5 GB there): SolverError with ``reason`` then."""
+    from . import SPARSE_ROWS
+
+    if len(problem.g) > SPARSE_ROWS:
+        raise SolverError(f"{reason}; use method='condensed' or 'full'")
+    log.info("%s; the condensed route answers instead", reason)
+    raw = condensed(problem, cache, settings, timings)
+    raw.route = Route.SPARSE_HANDED_OVER
+    return raw
 
 
 def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
@@ -306,8 +323,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
             break
         active, steps = out[1], steps + out[2]
     if out is None:
-        raise SolverError("the Newton steps of the regularised problem on the sparse mixed system did not settle "
-                          "(a singular system); use method='condensed' or 'full'")
+        return _hand_over(problem, cache, settings, timings, "the Newton steps of the regularised problem on the "
+                          "sparse mixed system did not settle (a singular system)")
     soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering

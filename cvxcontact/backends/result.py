@@ -67,6 +67,11 @@ class Route(StrEnum):
     KRYLOV_ACTIVE_SET = "active-set steps, AMG-preconditioned Krylov solves"
     """The AMG route (method "amg", :mod:`cvxcontact.backends.amg`): the sparse route's active-set steps with
     each system solved by AMG-preconditioned CG/MINRES to a relative residual 1e-10, no factorisation."""
+    SPARSE_HANDED_OVER = "sparse active-set steps did not settle -> condensed"
+    """The sparse route (method "sparse", or ``auto`` choosing it): its steps did not settle (a cycle, a singular
+    system in every attempt, :meth:`~cvxcontact.backends.sparse.SparseContact.solve`) on an interface of at most
+    :data:`~cvxcontact.backends.SPARSE_ROWS` rows; the condensed route (interior point + exact finish) answered
+    instead, its answer checked as any (``SolveInfo.method`` "condensed")."""
     SPARSE_FALLBACK = "condensed, failed its checks -> sparse active-set steps"
     """``method="auto"``: the condensed answer failed the checks of (26)-(27) (an ill-conditioned interface
     compliance, e.g. a slender layer); the sparse route (:mod:`cvxcontact.backends.sparse`) solved the

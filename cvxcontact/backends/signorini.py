@@ -8,6 +8,7 @@ import logging
 import time
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
@@ -20,7 +21,7 @@ from .mixed import mixed_system, stacked, unstacked
 from .program import release, timed_program
 from .result import Finish, RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows"]
+__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows", "looser_rows"]
 
 log = logging.getLogger(__name__)
 
@@ -230,7 +231,9 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     leads nowhere) or the previous active set (re-solve); where every start tried leads nowhere, from the coarse
     rows' answer whatever the size (measured: thin_layer(200) on a flat gap, and a thin clamped plate on a
     block with a crowned gap at 1,681 rows, where the steps from the bonded start cycle). Exact, no interior
-    point (``polish`` does not apply). ``iterations`` counts the systems solved."""
+    point (``polish`` does not apply). ``iterations`` counts the systems solved. A row a tighter parallel row implies
+    stays open (:func:`looser_rows`: two obstacles at one node); where the steps still do not settle, the condensed
+    route answers (:func:`_hand_over`, route ``SPARSE_HANDED_OVER``)."""
     from .sparse import COARSE_ROWS, SparseContact
 
     if dependent_rows(problem):
@@ -242,8 +245,9 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
+    free &= ~looser_rows(sc.G, problem.g)    # so does a row a tighter parallel row implies (K(A) singular too)
     out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
-    start, coarse = cheap_start(problem), False
+    start, coarse = cheap_start(problem, free), False
     if out is None and start is None and int(free.sum()) >= COARSE_ROWS:    # a long interface: from the
         start, coarse = sc.coarse_start(rhs, problem.g, free), True           # answer of its coarse rows
     if out is None and start is not None:                  # 3D: the rows the obstacles already close
@@ -258,13 +262,28 @@ def sparse(problem, cache, settings, timings) -> RawResult:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time - f0
     timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time - f0)
     if out is None:
-        raise SolverError("the active-set steps on the sparse mixed system did not settle (they cycled or met "
-                          "a singular system); use method='condensed' or 'full'")
+        return _hand_over(problem, cache, settings, timings, "the active-set steps on the sparse mixed system did "
+                          "not settle (they cycled or met a singular system)")
     u, phi, y, active, steps = out
     cache.active = active
     return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="sparse",
                      route=Route.WARM_START if warm else Route.SPARSE_ACTIVE_SET, finish="active set",
                      factorization=sc.factorization)
+
+
+def _hand_over(problem, cache, settings, timings, reason: str) -> RawResult:
+    """The condensed route's answer where the sparse route's steps stopped (``reason``), route
+    :attr:`~cvxcontact.backends.result.Route.SPARSE_HANDED_OVER`: a route the package has must not leave the call
+    failing. Not above :data:`~cvxcontact.backends.SPARSE_ROWS` rows (the condensed route's dense m x m interface
+    matrices, 0.5 GB there): SolverError with ``reason`` then."""
+    from . import SPARSE_ROWS
+
+    if len(problem.g) > SPARSE_ROWS:
+        raise SolverError(f"{reason}; use method='condensed' or 'full'")
+    log.info("%s; the condensed route answers instead", reason)
+    raw = condensed(problem, cache, settings, timings)
+    raw.route = Route.SPARSE_HANDED_OVER
+    return raw
 
 
 def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
@@ -304,8 +323,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
             break
         active, steps = out[1], steps + out[2]
     if out is None:
-        raise SolverError("the Newton steps of the regularised problem on the sparse mixed system did not settle "
-                          "(a singular system); use method='condensed' or 'full'")
+        return _hand_over(problem, cache, settings, timings, "the Newton steps of the regularised problem on the "
+                          "sparse mixed system did not settle (a singular system)")
     soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
@@ -323,16 +342,48 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
                      factorization=sc.factorization)
 
 
-def cheap_start(problem):
+def cheap_start(problem, free=None):
     """The first active set of a 3D sparse solve: the rows that move and whose gap is already closed (g <= 0,
     e.g. the nodes inside a rigid sphere's initial overlap); None in 2D, or where it is every such row or none
     (then the bonded start). Why 3D: a contact zone is a patch there, and from the bonded start the steps
     open it ring by ring, each ring more rows than the capacitance form takes, i.e. one refactorisation per
     step (measured, a sphere 0.02 m into a block, 22,500 unknowns, 625 rows: bonded start 6 steps and 4
     factorisations, this start 2 steps and 1). In 2D it is not used: on thin_layer(1000) (a crowned gap
-    closed at one node) the steps from it do not settle."""
+    closed at one node) the steps from it do not settle. ``free``: the rows that may close (default: those that
+    move)."""
     if problem.dim != 3:
         return None
-    free = ~problem.held_rows
+    free = ~problem.held_rows if free is None else free
     start = free & (np.asarray(problem.g) <= 0.0)
     return start if 0 < start.sum() < free.sum() else None
+
+
+PARALLEL_TOL = 1e-12
+"""Two contact rows are parallel (:func:`looser_rows`) where their unit rows (each row of G over its 2-norm) agree to
+this in every entry: the rows of two obstacles at one node with the same normal are equal to the last bit."""
+
+
+def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
+    """The contact rows another row implies (bool per row): a row a with G_a = c G_b, c > 0 (to ``tol``,
+    :data:`PARALLEL_TOL`), of a normalised gap g_a / |G_a| >= g_b / |G_b| (the tightest of each parallel group is
+    kept; of equal gaps, the first). G_b x <= g_b gives G_a x <= g_a: the row is never needed, its force is 0 at an
+    answer, and closed beside the kept one it makes K(A) of the sparse route singular (two equal rows, gaps
+    different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
+    over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
+    tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched."""
+    G = sp.csr_matrix(G, copy=True)
+    G.eliminate_zeros()
+    G.sort_indices()
+    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
+    groups: dict[bytes, list[int]] = {}
+    for a in np.flatnonzero(norms > 0):               # rows on the same unknowns (the only candidates)
+        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
+    looser = np.zeros(G.shape[0], dtype=bool)
+    for rows in (r for r in groups.values() if len(r) > 1):
+        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]      # tightest first, ties by index
+        U = np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])
+        for i in range(len(rows)):
+            if not looser[rows[i]]:
+                looser[rows[i + 1:]] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol
+    return looser

@@ -14,7 +14,6 @@ and a slack opened by 1e-9 of the body's displacement read the same as before (t
 max_s |beta_s| . R_s / (Y U_s)).
 """
 
-
 import numpy as np
 import pytest
 import scipy.sparse as sp

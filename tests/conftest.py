@@ -47,8 +47,8 @@ def solutions(scene):
 
 def _fingerprint(x, depth=0):
     """What a shared answer holds, to compare before and after the tests that read it: every array's bytes, every
-    number, string and container, the fields of a dataclass (the problem, scene, interface and lazily made state
-    left out: those are not answers a test compares); other objects by identity."""
+    number, string and container, the fields of a dataclass but those of :data:`_UNCOMPARED` (the problem, scene,
+    interface, lazily made state and memos: not answers a test compares); other objects by identity."""
     if isinstance(x, np.ndarray):
         data = repr(x.tolist()) if x.dtype == object else np.ascontiguousarray(x).tobytes()
         return "array", x.dtype.str, x.shape, hash(data)
@@ -68,7 +68,10 @@ def _fingerprint(x, depth=0):
     return "object", id(x)
 
 
-_UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state"})
+_UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state", "products"})
+"""Fields a shared answer's fingerprint leaves out: the problem, scene and interface (not answers), the lazily made
+state, and a Block's ``products`` (its memo of the last product K z, :meth:`~cvxcontact.discrete.blocks.Block.
+_times`: a check read with other displacements updates it, the answer unchanged)."""
 
 
 def _memo():

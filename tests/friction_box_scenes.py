@@ -6,6 +6,7 @@ import each other.
 """
 
 import numpy as np
+import pytest
 from friction_scenes import watched_p2
 
 import cvxcontact as cc
@@ -89,10 +90,49 @@ sheared by (0.2, 0.1) p; with its left side held, sheared along y. Their finishe
 shared across those modules by :func:`lifting_key` (conftest's ``shared``)."""
 
 
+def counted_directions(monkeypatch):
+    """Counts (in the returned dict) the sparse LUs of the directions' mixed system, Lawson-Hanson's finishes (one
+    per step on the directions) and, per call of ``fixed_directions``, its steps and how it ended (a Declined or
+    not), on ``monkeypatch`` (the functions themselves are called: the same answers)."""
+    from cvxcontact.backends.finish import Declined, directions
+    from cvxcontact.backends.finish import friction as finish_friction
+
+    count = {"lu": 0, "steps": 0, "runs": []}
+    lu, finish, steps = directions.superlu, directions.independent_active_set, finish_friction.fixed_directions
+
+    def counted_lu(*args, **kwargs):
+        count["lu"] += 1
+        return lu(*args, **kwargs)
+
+    def counted_finish(*args, **kwargs):
+        count["steps"] += 1
+        count["runs"][-1][0] += 1
+        return finish(*args, **kwargs)
+
+    def counted_steps(*args, **kwargs):
+        count["runs"].append([0, None])
+        out = steps(*args, **kwargs)
+        count["runs"][-1][1] = isinstance(out, Declined)
+        return out
+
+    monkeypatch.setattr(directions, "superlu", counted_lu)
+    monkeypatch.setattr(directions, "independent_active_set", counted_finish)
+    monkeypatch.setattr(finish_friction, "fixed_directions", counted_steps)
+    return count
+
+
 def lifting_key(name):
     """(key, make) of conftest's ``shared`` for the finished P2 answer of the box ``LIFTING[name]`` under Tresca 3 MPa
-    with the finish's outcomes (``friction_scenes.watched_p2``): ``shared(*lifting_key(name))``."""
-    return ("P2 box lifting at a corner, Tresca 3 MPa", name), lambda: watched_p2(LIFTING[name](cc.Tresca(3e6)))
+    with the finish's outcomes (``friction_scenes.watched_p2``) and the counts of its steps on the directions
+    (:func:`counted_directions`): ``shared(*lifting_key(name))`` is (solution, outcomes, counts), read by
+    tests/test_friction_p2_lifting3d.py, test_friction_p2_ridges3d.py and test_friction_directions.py."""
+
+    def make():
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            count = counted_directions(monkeypatch)
+            return *watched_p2(LIFTING[name](cc.Tresca(3e6))), count
+
+    return ("P2 box lifting at a corner, Tresca 3 MPa", name), make
 
 
 def coulomb_key():

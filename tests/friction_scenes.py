@@ -142,6 +142,32 @@ def layer_key(name):
     return ("P2 layer on a plane, gamma3", name), lambda: cc.solve(LAYERS3D[name](), "gamma3", degree=2)
 
 
+NEVER_YIELDING = cc.materials.hencky(E=E, nu=0.0, sigma_y=1e15, h=0.1)
+"""A Hencky material of the layers' steel (nu = 0) whose yield stress no strain reaches: its answers are the linear
+material's."""
+
+STUCK_LAWS = {"tresca": lambda tau: cc.Tresca(10 * tau), "coulomb": lambda tau: cc.Coulomb(1.0)}
+"""The laws that hold the uniform layer of :func:`uniform_layer3d` stuck under the shear tau."""
+
+
+def never_yielding_key(law):
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer (a ResidualWarning an error) of the uniform
+    layer (:func:`uniform_layer3d`, tau = 0.2 p) of the :data:`NEVER_YIELDING` Hencky material under
+    ``STUCK_LAWS[law]`` ("tresca": 10 tau; "coulomb": mu = 1), stuck: tests/test_friction_hencky3d_p2.py and
+    test_refusals.py read it (``shared(*never_yielding_key(law))``)."""
+
+    def make():
+        tau = 0.2 * P
+        layer = uniform_layer3d(tau, STUCK_LAWS[law](tau))
+        body = layer.bodies[0].with_changes(material=NEVER_YIELDING)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", cc.ResidualWarning)
+            return cc.solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", FLOOR3D, law=layer.contacts[0].law)]),
+                            "gamma3", degree=2)
+
+    return ("P2 layer of a never-yielding Hencky body on a plane, stuck, gamma3", law), make
+
+
 def uniform_pair3d(tau, law, swap=False, n=2):
     """Two unit layers (n x n x 1 tetrahedra each, matching faces, nu = 0) in the uniform state of
     :func:`uniform_layer3d`, the upper one on the lower one clamped at z = -1, ``law`` between them; ``swap``: the
@@ -221,6 +247,29 @@ def pair2d(law, q=0.02 * P, condition="sigma1"):
     a = cc.Body(cc.rectangle(x=(0.0, L), y=(0.0, H), nx=7, ny=3), steel(), contact="bottom", traction={"top": (q, -P)})
     b = cc.Body(cc.rectangle(x=(-0.2, L + 0.2), y=(-H, 0.0), nx=9, ny=3), steel(), contact="top", clamped="bottom")
     return cc.Scene(a, b, contacts=[cc.Contact(a, "bottom", b, "top", law=law, condition=condition)])
+
+
+def pair2d_key():
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer of :func:`pair2d` under Tresca 0.03 p sheared by
+    0.02 p, both lines under "gamma3", with the calls of the finish's one-row pivots (``finish.friction._pivots``, a
+    list: one entry per call): (solution, calls), read by tests/test_friction_finish.py and
+    test_friction_p2_gamma3.py (``shared(*pair2d_key())``)."""
+
+    def make():
+        from cvxcontact.backends.finish import friction as finish
+
+        pivots, calls = finish._pivots, []
+
+        def spy(*args, **kwargs):
+            calls.append(1)
+            return pivots(*args, **kwargs)
+
+        with pytest.MonkeyPatch.context() as monkeypatch:
+            monkeypatch.setattr(finish, "_pivots", spy)
+            return cc.solve(pair2d(cc.Tresca(0.03 * P), 0.02 * P, condition="gamma3"), condition="gamma3",
+                            degree=2), calls
+
+    return ("P2 pair of non-matching lines, gamma3, Tresca 0.03 p",), make
 
 
 def opened(law, dim=2):

@@ -123,6 +123,37 @@ def sphere_on_block(force=2e9, n=(6, 6, 3), material=STEEL):
     return cc.Scene(body, contacts=[cc.Contact(body, "top", ball)])
 
 
+def watched_checks(scene, **options):
+    """(the "gamma3" solution of ``scene`` under ``options``, a ResolutionWarning ignored; the arguments
+    ``solution.checks.conic_checks`` read the answer with, by name: blocks, u, phi, r, B, g, beta, ...)."""
+    import warnings
+
+    import pytest
+
+    from cvxcontact.solution import nodal
+
+    seen, checks = {}, nodal.conic_checks
+
+    def spy(*args, **kwargs):
+        seen.update(zip(("blocks", "u", "phi", "r", "B", "g", "beta"), args), **kwargs)
+        return checks(*args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
+        warnings.simplefilter("ignore", cc.ResolutionWarning)
+        mp.setattr(nodal, "conic_checks", spy)
+        sol = cc.solve(scene, "gamma3", **options)
+    return sol, seen
+
+
+def sphere_cones_key():
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer of :func:`sphere_on_block` (4 x 4 x 2 cells)
+    on the full route with the arguments its checks read (:func:`watched_checks`): (solution, arguments), read by
+    tests/test_check_rounding_cones.py and test_forced_condensed.py (``shared(*sphere_cones_key())``; the method
+    "auto" takes the full route here: the same answer bit for bit)."""
+    return ("P2 cones under a force-controlled sphere, 4 x 4 x 2, full",), \
+        lambda: watched_checks(sphere_on_block(n=(4, 4, 2)), degree=2, method="full")
+
+
 def three_blocks(counts=((4, 4), (3, 5), (5, 3)), p=P, conditions=("gamma3", "gamma3"), middle=STEEL):
     """Three blocks of height 1/3 m stacked on (0, 1)^2 (rollers on their sides, the lowest on its base),
     their faces non-matching (``counts`` cells across each block), pressed by ``p`` on the top: the

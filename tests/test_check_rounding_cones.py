@@ -14,48 +14,34 @@ and a slack opened by 1e-9 of the body's displacement read the same as before (t
 max_s |beta_s| . R_s / (Y U_s)).
 """
 
-import warnings
-
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from obstacle_scenes import circle
-from scenes3d import sphere_on_block
+from scenes3d import sphere_cones_key, sphere_on_block, watched_checks
 
 import cvxcontact as cc
 from cvxcontact.apps.demo import two_blocks as quickstart
 from cvxcontact.backends.cuts import segment_scales
 from cvxcontact.backends.finish import coefficient_rounding, slack_terms
-from cvxcontact.solution import nodal
 from cvxcontact.solution.checks import cone_slack, conic_checks
 
 pytestmark = pytest.mark.numerics
 
 EPS = np.finfo(float).eps
+SPHERE = "free sphere (triangles, true gap)"
 SCENES = {"quickstart 12x6 (segments, interpolated gap)": lambda: quickstart(12),
           "circle (segments, true gap)": circle,
-          "free sphere (triangles, true gap)": lambda: sphere_on_block(n=(4, 4, 2))}
-
-
-def _watched(scene, **options):
-    """(the "gamma3" solution of ``scene``, the arguments conic_checks read the answer with)."""
-    seen = {}
-
-    def spy(*args, **kwargs):
-        seen.update(zip(("blocks", "u", "phi", "r", "B", "g", "beta"), args), **kwargs)
-        return conic_checks(*args, **kwargs)
-
-    with pytest.MonkeyPatch.context() as mp, warnings.catch_warnings():
-        warnings.simplefilter("ignore", cc.ResolutionWarning)
-        mp.setattr(nodal, "conic_checks", spy)
-        sol = cc.solve(scene, "gamma3", **options)
-    return sol, seen
+          SPHERE: lambda: sphere_on_block(n=(4, 4, 2))}
 
 
 @pytest.fixture(scope="module", params=list(SCENES))
-def solved(request):
-    """(solution, the arguments conic_checks read the answer with)."""
-    return _watched(SCENES[request.param](), degree=2)
+def solved(request, shared):
+    """(solution, the arguments conic_checks read the answer with); the sphere's, solved once a run
+    (tests/test_forced_condensed.py reads it too)."""
+    if request.param == SPHERE:
+        return shared(*sphere_cones_key())
+    return watched_checks(SCENES[request.param](), degree=2)
 
 
 def _pairing(args):
@@ -139,8 +125,8 @@ def mixed_far():
     1e-2 m to the displacements' 1e-5 m, so its rounding is that of the translation terms, not of |g|."""
     from obstacle_scenes import punch_scene
 
-    return _watched(punch_scene(0.5 + 1e-2)(force=(0.0, -2e6)), degree=2,
-                    law=cc.NormalCompliance(stiffness=1e13, penetration_limit=1e-6))
+    return watched_checks(punch_scene(0.5 + 1e-2)(force=(0.0, -2e6)), degree=2,
+                          law=cc.NormalCompliance(stiffness=1e13, penetration_limit=1e-6))
 
 
 def test_a_mixed_scene_takes_off_the_translations_rounding(mixed_far):

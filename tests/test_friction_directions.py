@@ -8,44 +8,16 @@ import warnings
 
 import numpy as np
 import pytest
-from friction_box_scenes import non_matching
+from friction_box_scenes import counted_directions, lifting_key, non_matching
 from friction_scenes import E, P, box, sliding_layer3d
 
 import cvxcontact as cc
-from cvxcontact.backends.finish import directions
 from cvxcontact.backends.finish import friction as finish_friction
 from cvxcontact.backends.finish.directions import DIRECTION_STALL
 
 P2 = {"condition": "gamma3", "degree": 2}
 TIGHT = {"tol_gap_abs": 1e-15, "tol_gap_rel": 1e-15, "tol_feas": 1e-13, "tol_ktratio": 1e-12, "max_iter": 1000}
 SHEAR = (0.2 * P, 0.1 * P)
-
-
-def _counted(monkeypatch):
-    """Counts (in the returned dict) the sparse LUs of the directions' mixed system, Lawson-Hanson's finishes (one
-    per step on the directions) and, per call of ``fixed_directions``, its steps and how it ended."""
-    count = {"lu": 0, "steps": 0, "runs": []}
-    lu, finish, steps = directions.superlu, directions.independent_active_set, finish_friction.fixed_directions
-
-    def counted_lu(*args, **kwargs):
-        count["lu"] += 1
-        return lu(*args, **kwargs)
-
-    def counted_finish(*args, **kwargs):
-        count["steps"] += 1
-        count["runs"][-1][0] += 1
-        return finish(*args, **kwargs)
-
-    def counted_steps(*args, **kwargs):
-        count["runs"].append([0, None])
-        out = steps(*args, **kwargs)
-        count["runs"][-1][1] = isinstance(out, cc.backends.finish.Declined)
-        return out
-
-    monkeypatch.setattr(directions, "superlu", counted_lu)
-    monkeypatch.setattr(directions, "independent_active_set", counted_finish)
-    monkeypatch.setattr(finish_friction, "fixed_directions", counted_steps)
-    return count
 
 
 def _tresca_energy(sol, g: float) -> float:
@@ -56,14 +28,12 @@ def _tresca_energy(sol, g: float) -> float:
 
 
 @pytest.fixture(scope="module")
-def sheared_box():
-    """The sheared box lifting at a corner under Tresca's g = 3e6 Pa, finished (a ResidualWarning an error), solved
-    once for the module's two tests that read it, with its counts (:func:`_counted`): (solution, counts)."""
-    with pytest.MonkeyPatch.context() as monkeypatch, warnings.catch_warnings():
-        count = _counted(monkeypatch)
-        warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(box(SHEAR, cc.Tresca(3e6)), **P2)
-    return sol, count
+def sheared_box(shared):
+    """The sheared box lifting at a corner under Tresca's g = 3e6 Pa, finished (a ResidualWarning an error), with its
+    counts (:func:`friction_box_scenes.counted_directions`): (solution, finish outcomes, counts), the answer
+    tests/test_friction_p2_ridges3d.py and test_friction_p2_lifting3d.py read (``friction_box_scenes.lifting_key``:
+    the box of tests/friction_scenes.py under SHEAR, bit for bit)."""
+    return shared(*lifting_key("sheared"))
 
 
 @pytest.mark.numerics
@@ -72,7 +42,7 @@ def test_the_directions_solve_lawson_hanson_on_one_factorisation_per_step(sheare
     solved on one factorisation of the bodies, a sparse LU of the mixed system only checks the set where they stop
     (or stands in for a step whose system on the rows is singular). Measured 112 sparse LUs over 99 steps (a sparse
     LU at every Lawson-Hanson step before: 792 over 96, 11 s of CPU instead of 4.6 s)."""
-    sol, count = sheared_box
+    sol, _, count = sheared_box
     assert sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     assert count["steps"] > 0 and count["lu"] <= 2 * count["steps"]
 
@@ -84,7 +54,7 @@ def test_steps_that_stall_on_the_non_matching_boxes_end_early_and_decline_as_bef
     the residual has not halved in DIRECTION_STALL steps (a row at the stick-slip boundary: 64 and 65 stuck rows
     in turn, the residual 2e-3 and 1e-13 in turn; measured 8 steps at most, 18 s of CPU for the solve, with no
     second start of the semismooth steps after them; before, two calls ran all 40 steps, 114 s)."""
-    count = _counted(monkeypatch)
+    count = counted_directions(monkeypatch)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         sol = cc.solve(non_matching(cc.Tresca(3e6)), **P2)
@@ -138,7 +108,7 @@ def test_at_the_stick_slip_boundary_the_finish_keeps_tresca_law(monkeypatch, f):
     normal force: there the pair now slips), and where a node slips, at the capacity (measured 4.4e-16) and against
     the slip (measured 1.8e-7 rad at the slip of 1e-12 of U: the direction of a slip at rounding is rounding's
     square root; 2e-8 elsewhere)."""
-    count = _counted(monkeypatch)
+    count = counted_directions(monkeypatch)
     g = 0.01 * P
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)

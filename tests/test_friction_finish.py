@@ -229,25 +229,17 @@ def test_rows_each_posed_twice_are_finished_to_the_closed_form(nc):
 
 
 @pytest.mark.numerics
-def test_a_2d_set_that_comes_back_is_pivoted_to_the_answer(monkeypatch):
+def test_a_2d_set_that_comes_back_is_pivoted_to_the_answer(shared):
     """The 2D pair of non-matching lines under the P2 cones with Tresca's friction: the finish's steps come back to
     an active set already solved, and the one-row pivots from the set just solved end them (module docstring of
     backends/finish/friction.py). The pivots run (spied) and the answer is finished, every check at rounding (was:
-    a NameError out of ``cc.solve`` once the steps moved into their own function)."""
-    from friction_scenes import P, pair2d
+    a NameError out of ``cc.solve`` once the steps moved into their own function). The solve is shared with
+    tests/test_friction_p2_gamma3.py (a ResidualWarning of it raised here again, an error)."""
+    from friction_scenes import pair2d_key
 
-    from cvxcontact.backends.finish import friction as finish
-
-    pivots, calls = finish._pivots, []
-
-    def spy(*args, **kwargs):
-        calls.append(1)
-        return pivots(*args, **kwargs)
-
-    monkeypatch.setattr(finish, "_pivots", spy)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(pair2d(cc.Tresca(0.03 * P), 0.02 * P, condition="gamma3"), condition="gamma3", degree=2)
+        sol, calls = shared(*pair2d_key())
     assert calls
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     r = sol.residuals()

@@ -23,7 +23,7 @@ from friction_scenes import (
     P,
     _side_shear,
     layer_key,
-    pair2d,
+    pair2d_key,
     pushed,
     sheared,
     steel,
@@ -122,7 +122,7 @@ def test_a_contact_ending_inside_an_element_is_finished_at_cut_points_and_tends_
 
 
 @pytest.mark.numerics
-def test_two_blocks_on_non_matching_lines_balance_finished_or_not():
+def test_two_blocks_on_non_matching_lines_balance_finished_or_not(shared):
     """Two blocks (non-matching lines, the upper one narrower): the finish adds cut points where the contact ends
     inside an element; where its steps do not settle (measured: they cycle on the cut round) the Newton at the
     tangency points from the interior point's structure (measured: finished, tests/test_friction_p2_cuts.py), else
@@ -131,7 +131,7 @@ def test_two_blocks_on_non_matching_lines_balance_finished_or_not():
     q = 0.02 * P
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
-        sol = cc.solve(pair2d(cc.Tresca(0.03 * P), q, condition="gamma3"), degree=2)
+        sol = shared(*pair2d_key())[0]      # pair2d(Tresca(0.03 p), q, "gamma3"), read by test_friction_finish too
     if not sol.polished:
         assert UNFINISHED_CONES in sol.info.declined
         assert any(UNFINISHED_CONES in str(w.message) for w in record if issubclass(w.category, cc.ResidualWarning))

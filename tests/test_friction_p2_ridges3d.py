@@ -126,7 +126,7 @@ def test_the_sheared_box_is_finished_on_its_ridges(sheared):
     eigenvector) is no edge: the largest |v_k| at most 1 - 1e-5 (measured 0.9985). The slack sampled at 861 points
     of every bottom triangle at most 1e-10 of the displacements (measured -1.4e-13: the samples miss the zero lines;
     the cuts' answer, +7.5e-10)."""
-    sol, seen = sheared
+    sol, seen, _ = sheared
     assert seen == [True]
     Q, top = _forms(sol)
     assert top.max() <= 1e-10
@@ -162,7 +162,7 @@ def test_the_held_side_box_is_finished_at_points_and_on_ridges(held):
     2.8e-19), 15 along lines (form of rank 1 to 1e-12: measured 2.0e-16 at most) and 3 at isolated points (second
     eigenvalue above 1e-4 of the first: measured 5.1e-2 .. 2.8e-1), each of these with two points where its maximum
     over an edge is 0."""
-    sol, seen = held
+    sol, seen, _ = held
     assert seen == [True]
     Q, top = _forms(sol)
     assert top.max() <= 1e-10

@@ -358,19 +358,16 @@ def test_friction_beside_a_hencky_body_that_never_yields_is_the_linear_answer(la
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", ["tresca", "coulomb"])
-def test_friction_beside_a_hencky_body_under_the_3d_p2_cones_is_solved(law):
+def test_friction_beside_a_hencky_body_under_the_3d_p2_cones_is_solved(law, shared):
     """Row 36 (b), supported (refused before): "gamma3" with degree=2 in 3D (the P2 cones with friction on
     tetrahedra) beside a Hencky body whose yield stress no strain reaches. The uniform sheared layer of
     tests/friction_scenes.py sticks: the linear closed form (measured 6.8e-16 Tresca, 4.1e-16 Coulomb), finished on
     the nodes of X_h (tests/test_friction_hencky3d_p2.py: yielding, cut points, a vanishing threshold)."""
-    from friction_scenes import DIAGONAL3, FLOOR3D, P, uniform_layer3d
+    from friction_scenes import DIAGONAL3, P, never_yielding_key
     from friction_scenes import E as E3
 
-    tau = 0.2 * P
-    friction = cc.Tresca(10 * tau) if law == "tresca" else cc.Coulomb(1.0)
-    layer = uniform_layer3d(tau, friction).bodies[0]
-    b = layer.with_changes(material=cc.materials.hencky(E=E3, nu=0.0, sigma_y=1e15, h=0.1))
-    sol = cc.solve(cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR3D, law=friction)]), "gamma3", degree=2)
+    tau = 0.2 * P                                   # the layer under Tresca 10 tau or Coulomb mu = 1, the Hencky
+    sol = shared(*never_yielding_key(law))          # body never yielding (the answer test_friction_hencky3d_p2 reads)
     z, q = sol.points[0][:, 2], tau * DIAGONAL3
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     assert rel(sol.u[0], np.column_stack([2 * q[0] * z / E3, 2 * q[1] * z / E3, -P * z / E3])) <= 1e-9

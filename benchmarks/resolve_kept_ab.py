@@ -121,7 +121,8 @@ def main():
     print("  after vs before, worst over the load cases (solve and solve_many): "
           + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
           + f"; ok {all(s.ok for v in answers.values() for s in v)}")
-    kept = sum(v[2].nbytes for b in solver.problem.blocks for k, v in b.absolute.items() if k != "KupT")
+    kept = sum(v[2].nbytes for b in solver.problem.blocks for k, v in b.absolute.items()
+               if k != "KupT" and v[2] is not None)                # (None: a matrix asked once, none kept)
     faces = sum(J.data.nbytes + J.indices.nbytes + J.indptr.nbytes for g in solver._geometry.values()
                 for J in [j for j, _ in g.faces.jumps] + list(g.faces.owners))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6

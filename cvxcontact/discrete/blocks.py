@@ -168,10 +168,11 @@ class Block:
         arrays; "jump": |jump|^T, the small matrix itself) and np.abs of its stored values (read-only), built when
         first asked and kept while the matrix is the same object. A load case's blocks share this store
         (:meth:`with_loads` keeps it: the same matrices), so |K| is formed once per problem, not per check: 8 bytes
-        per stored entry of Kuu, Kup and Kpp (Kup^T reads Kup's), sharing K's index arrays."""
+        per stored entry of Kuu, Kup and Kpp (Kup^T reads Kup's), sharing K's index arrays. The checks ask it from
+        their second product of a matrix on (:meth:`_abs_times`)."""
         source = self.Kup if name == "KupT" else getattr(self, name)
         kept = self.absolute.get(name)
-        if kept is None or kept[0] is not source:
+        if kept is None or kept[0] is not source or kept[1] is None:
             if name == "jump":
                 M = abs(source).T                               # as abs(jump).T (the same numbers)
                 values = M.data
@@ -183,9 +184,16 @@ class Block:
         return kept[1], kept[2]
 
     def _abs_times(self, name: str, z) -> np.ndarray:
-        """|M| |z| of the matrix ``name`` (:meth:`abs_values`): :func:`abs_product` on the kept values."""
-        M, values = self.abs_values(name)
-        return abs_product(M, z, values)
+        """|M| |z| of the matrix ``name``: the first product of a matrix by :func:`abs_product` alone (its |values|
+        formed block by block, none kept: a one-shot solve's checks peak no higher than without the store), the
+        next on the values :meth:`abs_values` keeps (a re-solve; the same numbers either way)."""
+        source = self.Kup if name == "KupT" else getattr(self, name)
+        kept = self.absolute.get(name)
+        if kept is not None and kept[0] is source:
+            M, values = self.abs_values(name)
+            return abs_product(M, z, values)
+        self.absolute[name] = (source, None, None)              # asked once: kept if asked again
+        return abs_product(source.T if name == "KupT" else source, z)
 
     def loads(self):
         """The right-hand side [f; q] of (26)."""

@@ -208,6 +208,37 @@ def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose
     fields_agree(a, cc.solve(scene, method="sparse"), 2e-8)             # measured 1.3e-10 (5 kernels)
 
 
+def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypatch, caplog):
+    """Wrong answers at every tolerance, RTOL included (x = 0, y = -1, whatever the set), make the steps cycle on
+    the first attempt and on each retry of ``amg.RETRIES``: the retries are bounded (one attempt each, then the
+    cold start's), the route hands the problem to the sparse route, says why in the log, and the answer is the
+    sparse route's own."""
+    import logging
+
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    seen = []
+    steps = amg.active_set_steps
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    def always_wrong(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        return np.zeros(self.n), -np.ones(self.m)
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    monkeypatch.setattr(amg.KrylovContact, "_system", always_wrong)
+    scene = two_boxes(6)
+    with caplog.at_level(logging.INFO, logger="cvxcontact"):
+        a = cc.solve(scene, method="amg")
+    assert seen == ["CYCLE"] * len(amg.RETRIES) and a.ok and a.info.method == "sparse"
+    assert any("AMG route" in r.getMessage() and "cycle" in r.getMessage() for r in caplog.records)
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-12)            # measured 0 (the same factorised steps)
+
+
 def _electrodes_scene(n=6):
     """A PZT-5A box pressed on an aluminium box (non-matching faces), driven at 200 V on its right face, a
     floating electrode with a charge on its left face, no grounded one."""

@@ -239,6 +239,35 @@ def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypat
     fields_agree(a, cc.solve(scene, method="sparse"), 1e-12)            # measured 0 (the same factorised steps)
 
 
+def test_steps_that_cycle_by_themselves_settle_on_the_tighter_loose_stages(monkeypatch):
+    """Two aluminium boxes (``_elastic_boxes(1e9, 14)``, CG) whose own loose steps cycle (no answer altered: a set's
+    1e-2 solve points to a set whose 1e-4 solve points back; on all five kernel sets): the retry from the last set
+    runs the stages 1e-4, 1e-6 before RTOL, settles without a second cycle, and its answer is the sparse route's
+    (the same active set, u and the contact force)."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    seen, tolerances = [], []
+    steps, system = amg.active_set_steps, amg.KrylovContact._system
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    def logged(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        tolerances.append((len(seen), rtol))
+        return system(self, active, F, g, x_start, rtol, verdict)
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    monkeypatch.setattr(amg.KrylovContact, "_system", logged)
+    a = cc.solve(_elastic_boxes(1e9, 14), method="amg")
+    assert seen == ["CYCLE", "settled"], "the scene no longer cycles: pick one that does to test the retry"
+    retry = [rtol for attempt, rtol in tolerances if attempt == 1]
+    assert retry[0] == amg.STEP_RTOLS[2] and retry[-1] == amg.RTOL and a.ok and a.info.method == "amg"
+    fields_agree(a, cc.solve(_elastic_boxes(1e9, 14), method="sparse"), 2e-8)  # measured 1.5e-10 (5 kernels)
+
+
 def _electrodes_scene(n=6):
     """A PZT-5A box pressed on an aluminium box (non-matching faces), driven at 200 V on its right face, a
     floating electrode with a charge on its left face, no grounded one."""

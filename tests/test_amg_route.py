@@ -208,6 +208,66 @@ def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose
     fields_agree(a, cc.solve(scene, method="sparse"), 2e-8)             # measured 1.3e-10 (5 kernels)
 
 
+def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypatch, caplog):
+    """Wrong answers at every tolerance, RTOL included (x = 0, y = -1, whatever the set), make the steps cycle on
+    the first attempt and on each retry of ``amg.RETRIES``: the retries are bounded (one attempt each, then the
+    cold start's), the route hands the problem to the sparse route, says why in the log, and the answer is the
+    sparse route's own."""
+    import logging
+
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    seen = []
+    steps = amg.active_set_steps
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    def always_wrong(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        return np.zeros(self.n), -np.ones(self.m)
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    monkeypatch.setattr(amg.KrylovContact, "_system", always_wrong)
+    scene = two_boxes(6)
+    with caplog.at_level(logging.INFO, logger="cvxcontact"):
+        a = cc.solve(scene, method="amg")
+    assert seen == ["CYCLE"] * len(amg.RETRIES) and a.ok and a.info.method == "sparse"
+    assert any("AMG route" in r.getMessage() and "cycle" in r.getMessage() for r in caplog.records)
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-12)            # measured 0 (the same factorised steps)
+
+
+def test_steps_that_cycle_by_themselves_settle_on_the_tighter_loose_stages(monkeypatch):
+    """Two aluminium boxes (``_elastic_boxes(1e9, 14)``, CG) whose own loose steps cycle (no answer altered: a set's
+    1e-2 solve points to a set whose 1e-4 solve points back; on all five kernel sets): the retry from the last set
+    runs the stages 1e-4, 1e-6 before RTOL, settles without a second cycle, and its answer is the sparse route's
+    (the same active set, u and the contact force)."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    seen, tolerances = [], []
+    steps, system = amg.active_set_steps, amg.KrylovContact._system
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    def logged(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        tolerances.append((len(seen), rtol))
+        return system(self, active, F, g, x_start, rtol, verdict)
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    monkeypatch.setattr(amg.KrylovContact, "_system", logged)
+    a = cc.solve(_elastic_boxes(1e9, 14), method="amg")
+    assert seen == ["CYCLE", "settled"], "the scene no longer cycles: pick one that does to test the retry"
+    retry = [rtol for attempt, rtol in tolerances if attempt == 1]
+    assert retry[0] == amg.STEP_RTOLS[2] and retry[-1] == amg.RTOL and a.ok and a.info.method == "amg"
+    fields_agree(a, cc.solve(_elastic_boxes(1e9, 14), method="sparse"), 2e-8)  # measured 1.5e-10 (5 kernels)
+
+
 def _electrodes_scene(n=6):
     """A PZT-5A box pressed on an aluminium box (non-matching faces), driven at 200 V on its right face, a
     floating electrode with a charge on its left face, no grounded one."""

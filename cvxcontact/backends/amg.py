@@ -58,6 +58,7 @@ Needs pyamg (``pip install "cvxcontact[amg]"``); without it ``method="auto"`` ne
 from __future__ import annotations
 
 import importlib.util
+import logging
 import time
 
 import numpy as np
@@ -70,6 +71,8 @@ from .finish import Declined, Stop, active_set_steps, signs_hold
 from .krylov import GMRES_RESTART, gmres, v_cycle
 from .krylov import seeded as _seeded
 from .sparse import row_weights
+
+log = logging.getLogger(__name__)
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
            "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "v_cycle"]
@@ -366,6 +369,7 @@ class KrylovContact:
         self.iterations = 0                  # Krylov iterations, all solves
         self._preconditioner = None          # (closed rows, :meth:`_precondition`) of the last set
         self.x = None                        # the last answer (the next solve's starting point)
+        self.declined = None                 # why the last solve returned None (a Declined), the hand-over's words
         self._reduction = None               # :meth:`_reduced` of the last set
         self._slave_rows = None              # (set, S's rows at its eliminated dofs): what y reads of S
 
@@ -552,6 +556,7 @@ class KrylovContact:
         if the steps cycle (on loose solves, they are retried from the last set on tighter ones, :data:`RETRIES`)
         or a Krylov solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
+        self.declined = None
         self._stacked()                          # dropped after the last solve: the same blocks stacked again
         movable = self.dof >= 0
         last = [np.asarray(active, dtype=bool) & movable]
@@ -585,7 +590,9 @@ class KrylovContact:
             if not isinstance(out, Declined) or out.stop is Stop.SINGULAR:
                 break
         self._reduction = None
-        if isinstance(out, Declined):
+        if isinstance(out, Declined):            # the words the route's hand-over logs (a step's None: a miss)
+            self.declined = out if out.stop is not Stop.SINGULAR else Declined(
+                Stop.SINGULAR, "a Krylov solve missed its tolerance")
             return None
         out = (out[0], out[1], count[0])
         (x, y), active, steps = out
@@ -627,6 +634,8 @@ def signorini(problem, cache, settings, timings):
     timings["amg_setup"] = kc.setup_time - setup
     timings["active_set"] = time.perf_counter() - t0 - timings.get("amg_setup", 0.0)
     if out is None:
+        log.info("the AMG route hands the problem to the sparse route: %s (after %d attempts of amg.RETRIES)",
+                 kc.declined, len(RETRIES))
         return sparse(problem, cache, settings, timings)
     u, phi, y, active, steps = out
     cache.active = active

@@ -1,11 +1,11 @@
 """The sparse route's coarse start on a 3D scene by stage: each stage's process CPU ms (inclusive), PARDISO's share.
 
 ``SparseContact(...).coarse_start(F, g)`` on tests/scenes3d.offset_boxes(n), two_boxes(n) or explore_coarse3d.py's
-plate(n) (``factorization="auto"``)
-``reps`` times (the first round left out: first-call costs), each listed function wrapped by a timer (process CPU,
-inclusive) that also sums the PARDISO calls inside it (``PardisoFactorization._call``). The stages nest
-(``coarse_start`` holds ``_coarse``, which holds ``row_graph``, ``coarse_rows``, ...): ``_coarse``'s own lines (G[idx],
-the forward solve's vectors) are its inclusive time less its callees'.
+plate(n) (``factorization="auto"``) ``reps`` times (the first round left out: first-call costs), each listed
+function wrapped by a timer (process CPU, inclusive) that also sums the PARDISO calls inside it
+(``PardisoFactorization._call``). The stages nest (``coarse_start`` holds ``_coarse``, which holds ``row_graph``,
+``coarse_rows``, ...): ``_coarse``'s own lines (G[idx], the forward solve's vectors) are its inclusive time less
+its callees'.
 
 Run (one thread):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/coarse3d_stages.py offset 28 4

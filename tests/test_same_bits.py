@@ -5,14 +5,15 @@ changes how fast, not what.
 
 Found: the AMG route started every Krylov solve from the last answer (kept between solves: a re-solve with
 warm_start=False differed by 2e-10 relative in u); the Newton routes (a Hencky body; the condensed route's
-compliance finish) took a Newton step from the previous answer of the same load (1e-16..2e-15), and the Hencky
-route's GMRES started from and was preconditioned by the last solve's step. Every array of each Solution is compared
-(u, phi, the forces, lambda_h, the estimate's indicators, ...), bit for bit.
+compliance finish) took a Newton step from the previous answer of the same load (1e-16..2e-15). (The Hencky
+route's cold solves now also forget the last step's factor and answer, TangentSolver.restart, and start from the
+rest state's set with warm_start=False: by construction; neither was seen to change bits.) Every array of each
+Solution is compared (u, phi, the forces, lambda_h, the estimate's indicators, ...), bit for bit.
 """
 
 import numpy as np
 import pytest
-from conftest import CACHES, digests
+from conftest import CACHES, arrays, digests
 from friction_scenes import pair2d
 from hencky_scenes import indented
 from scenes import SCENES, two_blocks
@@ -35,6 +36,7 @@ CASES = {
     "2D P2 cones": (*SCENES["two blocks, P2 gamma3 (cones)"], 4e9, True),
     "2D condensed compliance": (*SCENES["springs in series, compliance"], 1e9, False),
     "3D sparse, dependent rows": (lambda: two_boxes(4, "gamma3", True), {"method": "sparse"}, 3e9, False),
+    "3D P2 sigma1": (lambda: two_boxes(3), {"degree": 2}, 3e9, True),
     "3D AMG, CG": (lambda: sphere_into_block(10), {"method": "amg"}, 1e8, False),
     "3D AMG, GMRES (potentials)": (lambda: two_boxes(6), {"method": "amg"}, 3e9, False),
     "2D Hencky (Newton)": (lambda: indented(HENCKY, nx=8, ny=3), {}, 1e6, False),
@@ -130,3 +132,32 @@ def test_the_load_key_tells_load_cases_apart():
               block(lift=1e-3)]
     keys = [load_key(problem.with_loads(s)) for s in others]
     assert len(set(keys + [key])) == len(others) + 1
+
+
+KEPT = {"2D condensed compliance": CASES["2D condensed compliance"], "3D AMG, CG": CASES["3D AMG, CG"],
+        "2D Hencky (Newton)": CASES["2D Hencky (Newton)"]}
+
+
+@pytest.mark.parametrize("name", list(KEPT))
+def test_a_kept_answer_is_not_the_users(name):
+    """The routes that keep their answer (the Newton routes' kept answer returned for the same load, the AMG route's
+    last iterate, the next solve's start) keep their own copy: every float array of the first Solution overwritten
+    (made writeable where numpy lets it: an array that owns its data, or a view of a writeable one) leaves the next
+    solve's bits alone. (The scene's obstacle, reached through ``sol.obstacles``, is the scene's, not the
+    answer's.)"""
+    build, options, _, _ = KEPT[name]
+    solver = cc.ContactSolver(build(), **options)
+    first = solver.solve()
+    skip = ANSWER | {"obstacle"}
+    before = digests(first, "solution", skip)
+    written = 0
+    for a in arrays(first, "solution", skip=skip).values():
+        if a.dtype.kind == "f" and a.size:
+            try:
+                a.setflags(write=True)
+            except ValueError:                          # a view of a read-only array: it cannot be written
+                continue
+            a[...] = 7.0
+            written += 1
+    assert written >= 5, written                        # (u, x, lam, force, ... were written)
+    assert digests(solver.solve(), "solution", skip) == before, name

@@ -61,7 +61,8 @@ def other_load(scene, force):
 @pytest.fixture(scope="module", params=list(CASES), ids=list(CASES))
 def runs(request):
     """The digests of each solve: on one solver the scene, again, an equal scene built anew, another load, the scene
-    again; on fresh solvers the scene and the other load; with warm_start=False the scene twice."""
+    again; on fresh solvers the scene and the other load; with warm_start=False the scene twice, the other load and
+    the scene again."""
     build, options, force, exact = CASES[request.param]
     scene = build()
     other = other_load(scene, force)
@@ -69,7 +70,7 @@ def runs(request):
     one = [solver.solve(), solver.solve(), solver.solve(build()), solver.solve(other), solver.solve(scene)]
     fresh = [cc.ContactSolver(s, **options).solve() for s in (build(), other)]
     cold = cc.ContactSolver(build(), warm_start=False, **options)
-    cold = [cold.solve(), cold.solve()]
+    cold = [cold.solve(), cold.solve(), cold.solve(other), cold.solve(scene)]
     first = one[0]
     assert first.ok and one[3].ok, (first.report(), one[3].report())
     assert first.info.method == fresh[0].info.method
@@ -93,8 +94,14 @@ def test_a_scene_solved_again_gives_its_first_bits(runs):
 
 
 def test_solves_without_warm_start_are_a_fresh_solvers(runs):
-    name, _, one, _, cold, _ = runs
+    """Every solve with warm_start=False is a fresh solver's, bit for bit: the scene twice, another load after it and
+    the scene after that (the other load moves no gap: the AMG route's start, the rows the obstacles close, is the
+    same, docs/explanation/known-behaviour.md). Found: the 3D sparse route on dependent rows finished another load
+    on the PARDISO analysis made on the first load's values (3.1e-15 relative in u from a fresh solver's)."""
+    name, _, one, fresh, cold, _ = runs
     assert cold[0] == one[0] and cold[1] == one[0], name
+    assert cold[2] == fresh[1], f"{name}: another load"
+    assert cold[3] == one[0], f"{name}: the scene after another load"
 
 
 def test_a_load_answered_before_another_keeps_its_bits(runs):

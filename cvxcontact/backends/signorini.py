@@ -309,6 +309,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
+    if not warm:                  # a cold solve: the finish's PARDISO analysis (scaling, matching) and base on its
+        sc.forget(analysis=True)  # own values, a fresh solver's bits (an earlier load's rounds otherwise: 3e-15)
     exact = sc.independent(rhs, g, out[0], out[1] & free)
     if sc.factor_time + soft.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time + soft.factor_time - f0

@@ -238,6 +238,8 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     if cache.sparse is None:
         cache.sparse = SparseContact(list(problem.blocks), problem.E, factorization=settings.factorization)
     sc, f0 = cache.sparse, cache.sparse.factor_time
+    if not settings.warm_start:           # each load as a fresh solver: PARDISO's analysis (scaling, matching) made
+        sc.forget(analysis=True)          # on its own first system, not an earlier load's (2e-12 otherwise, 3D)
     t0 = time.perf_counter()
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
@@ -295,6 +297,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows
     warm = settings.warm_start and soft.last is not None
+    if not settings.warm_start:                        # (the regularised steps' analysis too, as a fresh solver's)
+        soft.forget(analysis=True)
     start = cheap_start(problem)
     active, steps, out = soft.last & free if warm else (free if start is None else start), 0, None
     for delta in (SOFT,) if warm else SOFT_PATH:      # continuation: each stage starts near its answer
@@ -309,7 +313,7 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
-    if not warm:                  # a cold solve: the finish's PARDISO analysis (scaling, matching) and base on its
+    if not settings.warm_start:   # a cold solve: the finish's PARDISO analysis (scaling, matching) and base on its
         sc.forget(analysis=True)  # own values, a fresh solver's bits (an earlier load's rounds otherwise: 3e-15)
     exact = sc.independent(rhs, g, out[0], out[1] & free)
     if sc.factor_time + soft.factor_time > f0:

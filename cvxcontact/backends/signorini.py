@@ -245,7 +245,13 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
+<<<<<<< HEAD
     free &= ~looser_rows(sc.G, problem.g)    # so does a row a tighter parallel row implies (K(A) singular too)
+=======
+    if not settings.warm_start:
+        first = cheap_start(problem)
+        fresh_analysis(sc, free if first is None else first)
+>>>>>>> r-repro
     out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
     start, coarse = cheap_start(problem, free), False
     if out is None and start is None and int(free.sum()) >= COARSE_ROWS:    # a long interface: from the
@@ -315,6 +321,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     free = ~problem.held_rows
     warm = settings.warm_start and soft.last is not None
     start = cheap_start(problem)
+    if not settings.warm_start:                        # (the regularised steps' analysis too, as a fresh solver's)
+        fresh_analysis(soft, free if start is None else start)
     active, steps, out = soft.last & free if warm else (free if start is None else start), 0, None
     for delta in (SOFT,) if warm else SOFT_PATH:      # continuation: each stage starts near its answer
         soft.set_soft(delta * sc.w)
@@ -328,6 +336,8 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
     soft.last = out[1]
     if sc.perm is None and soft.perm is not None:
         sc.perm = soft.perm                              # one pattern: one fill-reducing ordering
+    if not settings.warm_start:   # a cold solve: the finish's PARDISO analysis (scaling, matching) and base on its
+        sc.forget(analysis=True)  # own values, a fresh solver's bits (an earlier load's rounds otherwise: 3e-15)
     exact = sc.independent(rhs, g, out[0], out[1] & free)
     if sc.factor_time + soft.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time + soft.factor_time - f0
@@ -342,7 +352,23 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
                      factorization=sc.factorization)
 
 
+<<<<<<< HEAD
 def cheap_start(problem, free=None):
+=======
+def fresh_analysis(sc, first) -> None:
+    """With warm_start=False each load is solved as by a fresh solver: PARDISO's analysis of ``sc`` (its scaling and
+    weighted matching, :meth:`~cvxcontact.backends.sparse.SparseContact._refactor`) is made on the first system it
+    factorises, K(``first``); kept while the cold solves start from the same rows (the same analysis), made anew
+    where they start from others (an earlier start's: 4.3e-13 relative in u from a fresh solver's on two_boxes(6)
+    with a deeper gap, tests/test_same_bits.py)."""
+    key = np.asarray(first, dtype=bool).tobytes()
+    if getattr(sc, "analysed_on", key) != key:
+        sc.forget(analysis=True)
+    sc.analysed_on = key
+
+
+def cheap_start(problem):
+>>>>>>> r-repro
     """The first active set of a 3D sparse solve: the rows that move and whose gap is already closed (g <= 0,
     e.g. the nodes inside a rigid sphere's initial overlap); None in 2D, or where it is every such row or none
     (then the bonded start). Why 3D: a contact zone is a patch there, and from the bonded start the steps

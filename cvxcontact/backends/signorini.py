@@ -245,13 +245,10 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
-<<<<<<< HEAD
     free &= ~looser_rows(sc.G, problem.g)    # so does a row a tighter parallel row implies (K(A) singular too)
-=======
     if not settings.warm_start:
-        first = cheap_start(problem)
+        first = cheap_start(problem, free)
         fresh_analysis(sc, free if first is None else first)
->>>>>>> r-repro
     out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
     start, coarse = cheap_start(problem, free), False
     if out is None and start is None and int(free.sum()) >= COARSE_ROWS:    # a long interface: from the
@@ -352,9 +349,6 @@ def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
                      factorization=sc.factorization)
 
 
-<<<<<<< HEAD
-def cheap_start(problem, free=None):
-=======
 def fresh_analysis(sc, first) -> None:
     """With warm_start=False each load is solved as by a fresh solver: PARDISO's analysis of ``sc`` (its scaling and
     weighted matching, :meth:`~cvxcontact.backends.sparse.SparseContact._refactor`) is made on the first system it
@@ -367,8 +361,7 @@ def fresh_analysis(sc, first) -> None:
     sc.analysed_on = key
 
 
-def cheap_start(problem):
->>>>>>> r-repro
+def cheap_start(problem, free=None):
     """The first active set of a 3D sparse solve: the rows that move and whose gap is already closed (g <= 0,
     e.g. the nodes inside a rigid sphere's initial overlap); None in 2D, or where it is every such row or none
     (then the bonded start). Why 3D: a contact zone is a patch there, and from the bonded start the steps

@@ -464,3 +464,18 @@ def test_the_base_scene_file_solves(tmp_path):
     spec = load_scene(path)
     assert spec.scene.bodies[0].contact == "bottom"            # the first part of its pair (scene-file rule)
     assert spec.solve().ok
+
+
+def test_rigid_obstacles_and_supports_stay_read_only_for_good():
+    """An obstacle's position, force, guided axes, plane normal and cylinder axis, and a body's node supports, are
+    read-only for good (errors.locked): ``setflags(write=True)`` raises instead of making them writeable again (they
+    owned their data and could be unlocked: a description edited in place after a solve read it)."""
+    import numpy as np
+
+    arrays = [cc.Rigid.plane((0.0, 0.0), (0.0, 1.0)).position, cc.Rigid.plane((0.0, 0.0), (0.0, 2.0)).position]
+    plane3 = cc.Rigid.plane((0.0, 0.0, 0.0), (0.0, 0.0, 3.0), force=(0.0, 0.0, -1.0), guided=(0.0, 0.0, 1.0))
+    arrays += [plane3.position, plane3.force, plane3.guided, cc.Rigid.sphere((0.0, 0.0, 1.0), 0.5).position]
+    for a in arrays:
+        assert isinstance(a, np.ndarray) and not a.flags.writeable
+        with pytest.raises(ValueError):
+            a.setflags(write=True)

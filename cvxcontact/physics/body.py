@@ -226,9 +226,8 @@ class Body(Frozen):
             self._set(_roller_normals=FrozenMap({t: _straight_normal(self, t) for t in self.roller}))
             # a clamped contact part is a fixed foundation, a prescribed displacement on it moves the contact line:
             # both enter the contact rows through the gap (discrete/problem.py, docs/formulation.md §11)
-            reduced = _supports.node_supports(self)             # consistent at every node (or a SceneError)
-            for a in reduced:
-                a.setflags(write=False)
+            reduced = tuple(locked(a) for a in _supports.node_supports(self))   # consistent at every node (or a
+            # SceneError)
             self._set(_node_supports=reduced)                   # kept: the prolongation of the vertices reads it
             self._check_kinematics()
         if self.piezoelectric:
@@ -323,8 +322,7 @@ def _straight_normal(body, tag):
                                                                                              "face")
         raise SceneError(f"{body.name}: roller part {tag!r} is not {shape} (its {cells} normals differ by up to "
                          f"{dev:.3g}); a roller needs one normal direction (split the part into {piece})")
-    n.setflags(write=False)
-    return n
+    return locked(n)
 
 
 def _prescribed(value, label, dim=2):

@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 
 from ..contact.interface import CONDITIONS
 from ..contact.laws import ContactLaw, check_law
-from ..errors import Frozen, SceneError
+from ..errors import Frozen, SceneError, locked
 from .obstacles import ObstacleRows, obstacle_rows, unit_direction
 from .posings import POSINGS, central_derivatives, named_posing, posed_surface
 from .surfaces import Ball, Cylinder, HeightField, Plane, Profile, fmt
@@ -60,8 +60,7 @@ def _point(value, label, dims=(2,)) -> np.ndarray:
         raise SceneError(f"{label}: expected {want} real numbers (m), got {value!r}") from None
     if p.ndim != 1 or len(p) not in dims or not np.isfinite(p).all() or isinstance(value, (str, bytes)):
         raise SceneError(f"{label}: expected {want} finite real numbers, got {value!r}")
-    p.setflags(write=False)
-    return p
+    return locked(p)
 
 
 
@@ -103,8 +102,7 @@ def _guide(guided, kind, dim) -> np.ndarray | None:
             if abs(G[i] @ G[j]) > 1e-9:
                 raise SceneError(f"Rigid.{kind}: guided axes {i} {fmt(G[i])} and {j} {fmt(G[j])} are not "
                                  f"orthogonal (dot product {G[i] @ G[j]:.6g}); give orthogonal unit axes")
-    G.setflags(write=False)
-    return G
+    return locked(G)
 
 
 def _guided_force(F, G, kind):
@@ -337,8 +335,7 @@ class Rigid(Frozen):
         F = _force(force, "plane", len(p))
         if np.linalg.norm(n) == 0:
             raise SceneError("Rigid.plane: normal must not be zero")
-        n = n / np.linalg.norm(n)
-        n.setflags(write=False)
+        n = locked(n / np.linalg.norm(n))
         posing = named_posing(distance, "plane")
         return cls._made("plane", lambda p: posed_surface(Plane(p, n), posing, POSINGS["ray"]), p, F,
                          _guide(guided, "plane", len(p)))
@@ -403,8 +400,7 @@ class Rigid(Frozen):
         R = _radius(radius, "cylinder")
         if np.linalg.norm(a) == 0:
             raise SceneError("Rigid.cylinder: axis must not be zero")
-        a = a / np.linalg.norm(a)
-        a.setflags(write=False)
+        a = locked(a / np.linalg.norm(a))
         posing = named_posing(distance, "cylinder")
         return cls._made("cylinder", lambda p: posed_surface(Cylinder(p, a, R), posing, POSINGS["closest"]), p, F,
                          _guide(guided, "cylinder", 3))

@@ -209,3 +209,14 @@ def test_runs_ending_at_one_node_add_the_node_where_their_rows_weigh_its_whole_h
     assert min(np.asarray(c.slip).min() for c in sol.contacts) > 0.5e-4                  # measured 1e-4: sliding
     total = sum(np.asarray(c.shear_force).sum() for c in sol.contacts)
     assert total == pytest.approx(-g * L * (1 + extra), rel=1e-12)                     # measured exact
+
+
+def test_adapt_warns_once_not_at_every_step():
+    """cc.adapt solves the scene on each refined mesh, a new problem each time: the overlap (the same pairs on the
+    same part) is said once, at the user's line (before: once per step, three for max_steps=2)."""
+    scene = uniform_layer(0.2 * P, cc.Tresca(G), obstacles=THREE_2D)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = cc.adapt(scene, "sigma1", max_steps=2)
+    assert len(out.history) == 3
+    assert [w.filename for w in caught if issubclass(w.category, cc.OverlapWarning)] == [__file__]

@@ -136,7 +136,7 @@ def warn_overlapping_thresholds(scene, lines, condition, meshes) -> list[dict]:
         k, part = o["side"]
         named = "; ".join(f"contacts[{i}] {scene.contacts[i]!r}" for i in o["pairs"])
         n, where = len(o["nodes"]), _where(meshes[k].points, o["nodes"])
-        warnings.warn(
+        warning = OverlapWarning(
             f"given friction thresholds overlap on {scene.bodies[k].name}'s contact part {part!r}: the pairs {named} "
             f"reach {n} of its nodes together ({where}; two or more of them at each; the nodes' weights summing to "
             f"{o['area']:.6g} {unit}), where their friction capacities add (g1 + g2 + ...): the slip there is "
@@ -144,8 +144,9 @@ def warn_overlapping_thresholds(scene, lines, condition, meshes) -> list[dict]:
             "forces, and Coulomb's capacity mu lambda, are shared between the pairs; a given threshold is each "
             "pair's own). If the obstacles are meant as one surface, split them so that each node is reached by "
             "one pair with a threshold (or give the overlap to one pair); two layers that are meant to add may be "
-            "kept",
-            OverlapWarning, stacklevel=user_stacklevel())
+            "kept")
+        warning.about = (k, part, tuple(o["pairs"]))        # the same on every mesh of the scene: cc.adapt says it once
+        warnings.warn(warning, stacklevel=user_stacklevel())
     return found
 
 

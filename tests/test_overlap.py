@@ -220,3 +220,22 @@ def test_adapt_warns_once_not_at_every_step():
         out = cc.adapt(scene, "sigma1", max_steps=2)
     assert len(out.history) == 3
     assert [w.filename for w in caught if issubclass(w.category, cc.OverlapWarning)] == [__file__]
+
+
+@pytest.mark.parametrize("dim, degree, cell", [(2, 1, "triangle"), (2, 2, "triangle"), (3, 1, "tetra"),
+                                               (3, 2, "tetra"), (3, 1, "hex"), (3, 2, "hex")])
+def test_one_obstacles_weights_over_the_whole_part_sum_to_its_area(dim, degree, cell):
+    """The reference a node's summed weights are compared with (overlap._whole_part: the pair's reaching copy of
+    every trace node) is one obstacle's quadrature of the whole part: every node weighed, summing to the bottom's
+    1 m (2D) or 1 m^2 (3D) (measured 0 and 2.2e-16 off)."""
+    from cvxcontact.discrete.overlap import _whole_part
+    if dim == 2:
+        scene = uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=(line(-1.0, 0.4), line(0.4, 2.0)))
+    else:
+        scene = uniform_layer3d(0.2 * P, cc.Tresca(G), n=2, cell=cell, obstacles=(strip(-1.0, 0.4), strip(0.4, 2.0)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solver = cc.ContactSolver(scene, "sigma1", degree=degree)
+    w = _whole_part(solver.problem.lines.interface.interfaces[0], "sigma1")
+    assert (w > 0).all()
+    assert w.sum() == pytest.approx(1.0, rel=1e-12)

@@ -333,7 +333,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         scene = scene.with_bodies(*(b.with_changes(mesh=m) for b, m in zip(scene.bodies, first)))
     exact = options.pop("polish", True)             # the last step's finish; the others' too with exact_steps
     history, kept = [], []
-    step, sol = 0, None
+    step, sol, told = 0, None, set()
     while True:
         clock, cpu = time.perf_counter(), time.process_time()
         finished = exact and (exact_steps or step >= max_steps)    # the last step by count: exact at once
@@ -369,7 +369,7 @@ def adapt(scene: Scene, condition: str = "gamma3", *, theta: float | None = None
         est = sol.estimate
         dropped = (ResolutionWarning, ResidualWarning) if exact and not finished else ResolutionWarning
         # an interior point's answer (exact_steps=False) is not exact: said
-        reissue([w for w in caught if stopped or not issubclass(w.category, dropped)])
+        reissue([w for w in caught if (stopped or not issubclass(w.category, dropped)) and not _told(w, told)])
         peak = peak_pressure(sol)
         before = history[-1].peak if history else float("nan")
         row = AdaptStep(step=step, cells=cells, unknowns=int(sum(u.size + (0 if p is None else p.size)
@@ -407,6 +407,18 @@ def _alike(scene, degree) -> list:
         return []
     return [((a, c.part_a), (b, c.part_b)) for c, (a, b) in zip(scene.contacts, scene.stack.members)
             if b is not None]
+
+
+def _told(w, told) -> bool:
+    """Whether the recorded warning ``w`` says what an earlier step's said about the scene itself (its message's
+    ``about``, e.g. :class:`~cvxcontact.errors.OverlapWarning`: the same pairs on the same part on every mesh);
+    else False, and its ``about`` remembered in ``told``."""
+    about = getattr(w.message, "about", None)
+    if about is None:
+        return False
+    seen = (w.category, about) in told
+    told.add((w.category, about))
+    return seen
 
 
 def _solve(scene, condition, previous, options, polish):

@@ -78,7 +78,9 @@ class OverlapWarning(UserWarning):
     by g1 + g2 (times the node's weight), not by one threshold, while the normal forces (and Coulomb's capacity
     mu lambda) are shared between the pairs. Raised when the problem is derived (before the solve), once per
     problem; a warning, not a refusal (overlapping thresholds may be meant). The message names the pairs, the
-    part, the nodes and the area (length in 2D) where they overlap, the summed threshold and the fix."""
+    part, the nodes and the area (length in 2D) where they overlap, the summed threshold and the fix. ``about``:
+    (scene body index, part, the pairs' indices), what it says the same on every mesh of the scene (``cc.adapt``
+    issues it once, not at every step)."""
 
 
 def user_stacklevel() -> int:

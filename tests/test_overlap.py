@@ -85,6 +85,38 @@ def test_a_single_shared_end_node_counts():
     assert len(found) == 1 and "reach 1 of its nodes" in found[0] and "summing to 0.2 m)" in found[0]
 
 
+def test_the_warning_says_where():
+    """The message lists the overlapped nodes (body node 2 of the 5 x 2 layer: x = 0.4 on the bottom, numbered
+    row by row) and the box of their coordinates."""
+    meet = (line(-1.0, 0.4, tol=1e-9), line(0.4, 2.0, tol=1e-9))
+    found, _ = overlap_warnings(lambda: cc.ContactSolver(uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=meet),
+                                                         "sigma1"))
+    assert "nodes 2, in the box from (0.4, 0) to (0.4, 0) m" in found[0]
+
+
+def test_p2_runs_ending_at_one_vertex_do_not_warn():
+    """2D P2: each run's row at its end vertex weighs Simpson's h/6 on its own segment only (0.2 / 6 m on the 5 x 2
+    layer), together the vertex's h/3 under one floor: no capacity added there, no warning (a false alarm before:
+    warned as on P1, whose rows there weigh the whole hat each; tests/test_overlap.py's sliding blocks: P1 9/8 g L,
+    P2 g L)."""
+    meet = (line(-1.0, 0.4, tol=1e-9), line(0.4, 2.0, tol=1e-9))
+    found, _ = overlap_warnings(lambda: cc.ContactSolver(uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=meet),
+                                                         "sigma1", degree=2))
+    assert found == []
+
+
+def test_p2_runs_overlapping_by_a_segment_warn():
+    """2D P2 runs x <= 0.5 and x >= 0.25 on the 4 x 2 layer (h = 0.25 m) share the segment [0.25, 0.5]: at its
+    midpoint both rows weigh 2 h / 3, the capacity 2 g; at its vertices the one run's h / 3 and the other's end h / 6
+    (1.5 g). Three nodes, their weights under one floor h / 3 + 2 h / 3 + h / 3 = 1/3 m, up to 2 g."""
+    runs = (line(-1.0, 0.5, tol=1e-9), line(0.25, 2.0, tol=1e-9))
+    found, _ = overlap_warnings(lambda: cc.ContactSolver(uniform_layer(0.2 * P, cc.Tresca(G), obstacles=runs),
+                                                         "sigma1", degree=2))
+    assert len(found) == 1
+    assert "reach 3 of its nodes" in found[0] and f"summing to {1 / 3:.6g} m)" in found[0]
+    assert f"up to {2 * G:.6g} Pa" in found[0]
+
+
 def test_coulomb_frictionless_and_a_single_floor_do_not_warn():
     for make in (lambda: uniform_layer(0.2 * P, cc.Coulomb(0.5), obstacles=THREE_2D),
                  lambda: uniform_layer3d(0.2 * P, cc.Coulomb(0.5), n=3, obstacles=THREE_3D),
@@ -162,3 +194,48 @@ def test_a_tresca_floor_never_touched_still_adds_its_capacity():
     assert np.abs(low.lam).max() == 0.0 and top.lam.max() > 0.9 * P                     # measured 0, 1.0008 p
     for c in (top, low):                                                                # measured exact
         assert np.asarray(c.shear_force).sum() == pytest.approx(-g * L, rel=1e-12)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("degree, extra", [(1, 1 / 8), (2, 0.0)])
+def test_runs_ending_at_one_node_add_the_node_where_their_rows_weigh_its_whole_hat(degree, extra):
+    """The 8 x 4 block pushed across two Tresca floors of g, x <= L/2 and x >= L/2 (both reaching the node x = L/2):
+    every node slides, so the friction is the capacities summed, by hand: P1, each row there the whole hat h = L/8,
+    g (L + h) = 9/8 g L and the warning; 2D P2, each run's end row its own h/6, g L and none."""
+    g = 1e3
+    meet = (line(-1.0, L / 2, tol=1e-9), line(L / 2, 2.0, tol=1e-9))
+    found, sol = overlap_warnings(lambda: cc.solve(pushed(cc.Tresca(g), obstacles=meet)[1], "sigma1", degree=degree))
+    assert sol.ok and len(found) == (extra > 0)
+    assert min(np.asarray(c.slip).min() for c in sol.contacts) > 0.5e-4                  # measured 1e-4: sliding
+    total = sum(np.asarray(c.shear_force).sum() for c in sol.contacts)
+    assert total == pytest.approx(-g * L * (1 + extra), rel=1e-12)     # measured 0 (P1), 1.1e-16 (P2), 5 kernels
+
+
+def test_adapt_warns_once_not_at_every_step():
+    """cc.adapt solves the scene on each refined mesh, a new problem each time: the overlap (the same pairs on the
+    same part) is said once, at the user's line (before: once per step, three for max_steps=2)."""
+    scene = uniform_layer(0.2 * P, cc.Tresca(G), obstacles=THREE_2D)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = cc.adapt(scene, "sigma1", max_steps=2)
+    assert len(out.history) == 3
+    assert [w.filename for w in caught if issubclass(w.category, cc.OverlapWarning)] == [__file__]
+
+
+@pytest.mark.parametrize("dim, degree, cell", [(2, 1, "triangle"), (2, 2, "triangle"), (3, 1, "tetra"),
+                                               (3, 2, "tetra"), (3, 1, "hex"), (3, 2, "hex")])
+def test_one_obstacles_weights_over_the_whole_part_sum_to_its_area(dim, degree, cell):
+    """The reference a node's summed weights are compared with (overlap._whole_part: the pair's reaching copy of
+    every trace node) is one obstacle's quadrature of the whole part: every node weighed, summing to the bottom's
+    1 m (2D) or 1 m^2 (3D) (measured 0 and 2.2e-16 off)."""
+    from cvxcontact.discrete.overlap import _whole_part
+    if dim == 2:
+        scene = uniform_layer(0.2 * P, cc.Tresca(G), nx=5, obstacles=(line(-1.0, 0.4), line(0.4, 2.0)))
+    else:
+        scene = uniform_layer3d(0.2 * P, cc.Tresca(G), n=2, cell=cell, obstacles=(strip(-1.0, 0.4), strip(0.4, 2.0)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        solver = cc.ContactSolver(scene, "sigma1", degree=degree)
+    w = _whole_part(solver.problem.lines.interface.interfaces[0], "sigma1")
+    assert (w > 0).all()
+    assert w.sum() == pytest.approx(1.0, rel=1e-12)

@@ -361,7 +361,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
     check_reachable(problem)
     # given friction thresholds of several obstacles on one node add up: warned once per problem (and per set of
     # rows: a moved obstacle's new rows are checked again), before the solve
-    problem.shared("overlapping thresholds", lambda: warn_overlapping_thresholds(scene, lines, condition), rows=True)
+    problem.shared("overlapping thresholds", lambda: warn_overlapping_thresholds(scene, lines, condition,
+                                                                                  problem.meshes), rows=True)
     return problem
 
 

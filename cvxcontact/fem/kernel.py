@@ -320,7 +320,9 @@ def _decide(A, w):
     w = w / norm if norm > 0 else w
     # 1. the lineality L = {A alpha = 0}: no row sees these motions, in either direction
     if len(A):
-        _, sv, Vt = np.linalg.svd(A, full_matrices=True)
+        # Vt (m, m) whole either way; U only as wide as needed (r x r would be r^2 floats: 8e3 contact rows took
+        # 0.5 GB; Vt and sv bitwise the same as with full_matrices=True)
+        _, sv, Vt = np.linalg.svd(A, full_matrices=len(A) < m)
         rank = int((sv > 1e-9 * sv[0]).sum()) if len(sv) else 0
         L = Vt[rank:].T
     else:

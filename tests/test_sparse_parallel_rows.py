@@ -86,3 +86,19 @@ def test_sparse_route_hands_over_to_the_condensed_route_where_its_steps_do_not_s
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.ok and sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert u_gap(sol, p2_3d["condensed"]) < 1e-13
+
+
+def test_a_handed_over_scene_solved_again_gives_its_first_bits(p2_3d, monkeypatch):
+    """Same question, same bits (tests/test_same_bits.py) where the sparse route hands over: solved again on one
+    ContactSolver, the scene is handed over again (before: the second solve's sparse steps started from the
+    condensed answer's set, settled, and answered with the sparse route's bits, 5e-16 of |u| away) and gives the
+    first solve's bits, a fresh solver's."""
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    solver = cc.ContactSolver(raised_3d(), "sigma1", degree=2)
+    first, again = solver.solve(), solver.solve()
+    fresh = cc.ContactSolver(raised_3d(), "sigma1", degree=2).solve()
+    for sol in (first, again, fresh):
+        assert sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
+    for sol in (again, fresh):
+        assert all(np.array_equal(x, y) for x, y in zip(sol.u, first.u))
+        assert all(np.array_equal(a.force, b.force) for a, b in zip(sol.contacts, first.contacts))

@@ -281,9 +281,11 @@ def _hand_over(problem, cache, settings, timings, reason: str) -> RawResult:
     if len(problem.g) > SPARSE_ROWS:
         raise SolverError(f"{reason}; use method='condensed' or 'full'")
     log.info("%s; the condensed route answers instead", reason)
+    cache.active = None         # from no previous set: a fresh solver's hand-over, bit for bit
     raw = condensed(problem, cache, settings, timings)
     raw.route = Route.SPARSE_HANDED_OVER
-    return raw
+    cache.active = None         # the next solve's sparse steps start cold too: warm from this set they may settle
+    return raw                  # (sparse bits), where a fresh solver hands over again (condensed bits)
 
 
 def _sparse_dependent(problem, cache, settings, timings) -> RawResult:

@@ -113,3 +113,20 @@ def test_amg_route_hands_two_obstacles_at_one_node_to_the_sparse_route():
     condensed = cc.solve(raised_3d(), "sigma1", degree=1, method="condensed")
     assert amg.ok and amg.info.method == "sparse" and amg.info.route == cc.Route.SPARSE_ACTIVE_SET
     assert u_gap(amg, condensed) < 1e-13
+
+
+def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
+    """The handed-over solve's ``timings["factorization"]`` counts the sparse route's factorisations too (before:
+    the condensed route's set-up overwrote them). Each sparse factorisation is made to count 1000 s here."""
+    refactor = SparseContact._refactor
+
+    def slow(self, *args, **kwargs):
+        out = refactor(self, *args, **kwargs)
+        self.factor_time += 1000.0
+        return out
+
+    monkeypatch.setattr(SparseContact, "_refactor", slow)
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    sol = cc.solve(raised_3d(), "sigma1", degree=2)
+    assert sol.info.route == cc.Route.SPARSE_HANDED_OVER
+    assert sol.info.timings["factorization"] >= 1000.0

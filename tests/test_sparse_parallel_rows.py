@@ -130,3 +130,15 @@ def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert sol.info.timings["factorization"] >= 1000.0
+
+
+@pytest.mark.parametrize("field", ["compliant", "friction", "force_control", "conic"])
+def test_the_sparse_backend_takes_no_rows_looser_rows_would_be_wrong_on(field):
+    """looser_rows holds for Signorini rows of fixed gaps only: a looser row penetrated under a compliance law
+    carries a force, a row's force bounds its friction, a force-controlled obstacle's gaps g - R tau may change
+    order with tau. The sparse route, its only caller (and the AMG route, which hands over to it), takes none."""
+    from cvxcontact.backends import ProblemDescription, backend
+
+    assert backend("sparse").accepts(ProblemDescription())
+    assert not backend("sparse").accepts(ProblemDescription(**{field: True}))
+    assert not backend("amg").accepts(ProblemDescription(**{field: True}))

@@ -142,3 +142,14 @@ def test_the_sparse_backend_takes_no_rows_looser_rows_would_be_wrong_on(field):
     assert backend("sparse").accepts(ProblemDescription())
     assert not backend("sparse").accepts(ProblemDescription(**{field: True}))
     assert not backend("amg").accepts(ProblemDescription(**{field: True}))
+
+
+def test_above_sparse_rows_the_unsettled_steps_raise_a_typed_error_naming_the_fix(monkeypatch):
+    """No hand-over above SPARSE_ROWS rows (the condensed route's dense m x m matrices): the SolverError names the
+    routes to use (SPARSE_ROWS lowered below the scene's rows here)."""
+    import cvxcontact.backends as backends
+
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(backends, "SPARSE_ROWS", 10)
+    with pytest.raises(cc.SolverError, match=r"did not settle.*use method='condensed' or 'full'"):
+        cc.solve(raised_3d(), "sigma1", degree=2, method="sparse")

@@ -147,7 +147,7 @@ def test_the_sparse_backend_takes_no_rows_looser_rows_would_be_wrong_on(field):
 def test_above_sparse_rows_the_unsettled_steps_raise_a_typed_error_naming_the_fix(monkeypatch):
     """No hand-over above SPARSE_ROWS rows (the condensed route's dense m x m matrices): the SolverError names the
     routes to use (SPARSE_ROWS lowered below the scene's rows here)."""
-    import cvxcontact.backends as backends
+    from cvxcontact import backends
 
     monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
     monkeypatch.setattr(backends, "SPARSE_ROWS", 10)

@@ -86,3 +86,70 @@ def test_sparse_route_hands_over_to_the_condensed_route_where_its_steps_do_not_s
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.ok and sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert u_gap(sol, p2_3d["condensed"]) < 1e-13
+
+
+def test_a_handed_over_scene_solved_again_gives_its_first_bits(p2_3d, monkeypatch):
+    """Same question, same bits (tests/test_same_bits.py) where the sparse route hands over: solved again on one
+    ContactSolver, the scene is handed over again (before: the second solve's sparse steps started from the
+    condensed answer's set, settled, and answered with the sparse route's bits, 5e-16 of |u| away) and gives the
+    first solve's bits, a fresh solver's."""
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    solver = cc.ContactSolver(raised_3d(), "sigma1", degree=2)
+    first, again = solver.solve(), solver.solve()
+    fresh = cc.ContactSolver(raised_3d(), "sigma1", degree=2).solve()
+    for sol in (first, again, fresh):
+        assert sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
+    for sol in (again, fresh):
+        assert all(np.array_equal(x, y) for x, y in zip(sol.u, first.u))
+        assert all(np.array_equal(a.force, b.force) for a, b in zip(sol.contacts, first.contacts))
+
+
+def test_amg_route_hands_two_obstacles_at_one_node_to_the_sparse_route():
+    """method="amg" on the 3D P1 scene: its Krylov route takes no two rows on one dof (two obstacles at a node), so
+    it hands the problem to the sparse route, which settles now (it raised SolverError before) and agrees with the
+    condensed route. Measured u_gap 4.2e-17 to 5.3e-17 (five kernel sets): bound 1e-13."""
+    pytest.importorskip("pyamg")
+    amg = cc.solve(raised_3d(), "sigma1", degree=1, method="amg")
+    condensed = cc.solve(raised_3d(), "sigma1", degree=1, method="condensed")
+    assert amg.ok and amg.info.method == "sparse" and amg.info.route == cc.Route.SPARSE_ACTIVE_SET
+    assert u_gap(amg, condensed) < 1e-13
+
+
+def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
+    """The handed-over solve's ``timings["factorization"]`` counts the sparse route's factorisations too (before:
+    the condensed route's set-up overwrote them). Each sparse factorisation is made to count 1000 s here."""
+    refactor = SparseContact._refactor
+
+    def slow(self, *args, **kwargs):
+        out = refactor(self, *args, **kwargs)
+        self.factor_time += 1000.0
+        return out
+
+    monkeypatch.setattr(SparseContact, "_refactor", slow)
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    sol = cc.solve(raised_3d(), "sigma1", degree=2)
+    assert sol.info.route == cc.Route.SPARSE_HANDED_OVER
+    assert sol.info.timings["factorization"] >= 1000.0
+
+
+@pytest.mark.parametrize("field", ["compliant", "friction", "force_control", "conic"])
+def test_the_sparse_backend_takes_no_rows_looser_rows_would_be_wrong_on(field):
+    """looser_rows holds for Signorini rows of fixed gaps only: a looser row penetrated under a compliance law
+    carries a force, a row's force bounds its friction, a force-controlled obstacle's gaps g - R tau may change
+    order with tau. The sparse route, its only caller (and the AMG route, which hands over to it), takes none."""
+    from cvxcontact.backends import ProblemDescription, backend
+
+    assert backend("sparse").accepts(ProblemDescription())
+    assert not backend("sparse").accepts(ProblemDescription(**{field: True}))
+    assert not backend("amg").accepts(ProblemDescription(**{field: True}))
+
+
+def test_above_sparse_rows_the_unsettled_steps_raise_a_typed_error_naming_the_fix(monkeypatch):
+    """No hand-over above SPARSE_ROWS rows (the condensed route's dense m x m matrices): the SolverError names the
+    routes to use (SPARSE_ROWS lowered below the scene's rows here)."""
+    from cvxcontact import backends
+
+    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(backends, "SPARSE_ROWS", 10)
+    with pytest.raises(cc.SolverError, match=r"did not settle.*use method='condensed' or 'full'"):
+        cc.solve(raised_3d(), "sigma1", degree=2, method="sparse")

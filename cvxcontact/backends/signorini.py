@@ -284,9 +284,11 @@ def _hand_over(problem, cache, settings, timings, reason: str) -> RawResult:
     if len(problem.g) > SPARSE_ROWS:
         raise SolverError(f"{reason}; use method='condensed' or 'full'")
     log.info("%s; the condensed route answers instead", reason)
+    cache.active = None         # from no previous set: a fresh solver's hand-over, bit for bit
     raw = condensed(problem, cache, settings, timings)
     raw.route = Route.SPARSE_HANDED_OVER
-    return raw
+    cache.active = None         # the next solve's sparse steps start cold too: warm from this set they may settle
+    return raw                  # (sparse bits), where a fresh solver hands over again (condensed bits)
 
 
 def _sparse_dependent(problem, cache, settings, timings) -> RawResult:
@@ -389,7 +391,11 @@ def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     answer, and closed beside the kept one it makes K(A) of the sparse route singular (two equal rows, gaps
     different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
     over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
-    tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched."""
+    tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched.
+    For Signorini rows of fixed gaps only, as the sparse route (its caller) takes: not beside a compliance law (a
+    looser row penetrated carries a force too), friction (a row's force bounds its friction) or a force-controlled
+    obstacle (gaps g - R tau: their order may change with tau), which the "sparse" backend does not accept
+    (:mod:`cvxcontact.backends`)."""
     G = sp.csr_matrix(G, copy=True)
     G.eliminate_zeros()
     G.sort_indices()

@@ -68,10 +68,12 @@ def _fingerprint(x, depth=0):
     return "object", id(x)
 
 
-_UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state", "products"})
+_UNCOMPARED = frozenset({"problem", "scene", "interface", "_state", "_pending_state", "products", "absolute"})
 """Fields a shared answer's fingerprint leaves out: the problem, scene and interface (not answers), the lazily made
-state, and a Block's ``products`` (its memo of the last product K z, :meth:`~cvxcontact.discrete.blocks.Block.
-_times`: a check read with other displacements updates it, the answer unchanged)."""
+state, and a Block's memos ``products`` (its last product K z, :meth:`~cvxcontact.discrete.blocks.Block._times`)
+and ``absolute`` (|K|'s values, kept from the second |K| |z| on, :meth:`~cvxcontact.discrete.blocks.Block.
+abs_values`): a check read with other displacements updates them, the answer unchanged (each keyed by the
+read-only matrix itself; the product also by z's numbers)."""
 
 
 def _memo():

@@ -94,3 +94,30 @@ def test_the_fingerprint_leaves_out_the_problem():
     made = _fingerprint(a)
     a.problem = object()
     assert _fingerprint(a) == made
+
+
+def _block():
+    """A real :class:`~cvxcontact.discrete.blocks.Block` (3 unknowns, one jump row) as a shared answer holds one."""
+    import scipy.sparse as sp
+
+    from cvxcontact.discrete.blocks import Block
+
+    K = sp.csr_matrix(np.array([[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 2.0]]))
+    return Block(Kuu=K, f=np.array([0.0, 1.0, -1.0]), jump=sp.csr_matrix(np.array([[0.0, 0.0, 1.0]])))
+
+
+def test_a_blocks_memos_read_by_a_second_check_leave_its_fingerprint():
+    """A check read again with other displacements (tests/test_check_rounding_cones.py on the shared sphere) updates
+    a Block's memos: its last product K z (``products``) and, from the second |K| |z| on, |K|'s values (``absolute``);
+    the answer is the same (both are keyed by the matrix itself and z's numbers), its fingerprint too. A change of
+    the Block's own data still changes it."""
+    a = _block()
+    a._times("Kuu", np.ones(3))
+    a._abs_times("Kuu", np.ones(3))                         # the first |K| |z|: as a solve's checks leave it
+    made = _fingerprint(a)
+    for z in (np.arange(3.0), -np.ones(3)):                 # the second and third: |K|'s values formed and kept
+        a._times("Kuu", z)
+        a._abs_times("Kuu", z)
+    assert a.absolute["Kuu"][2] is not None and _fingerprint(a) == made
+    a.f = a.f + 1.0
+    assert _fingerprint(a) != made

@@ -461,12 +461,20 @@ P2_CONES = {"condition": "gamma3", "degree": 2}
 """The options of the P2 "everywhere" cones ("gamma3" with degree=2)."""
 
 
-def finished_p2(scene):
+def tilted_key(law, nx):
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer (:data:`P2_CONES`) of :func:`tilted` (q = 0.3)
+    under ``law`` with ``nx`` cells along x: tests/test_friction_p2_cuts.py and test_friction_p2_gamma3_checks.py
+    read it (``shared(*tilted_key(law, nx))``)."""
+    return ("P2 tilted free block on the floor", law, nx), lambda: cc.solve(tilted(law, nx), **P2_CONES)
+
+
+def finished_p2(scene, made=None):
     """The answer of ``scene`` under the P2 cones (:data:`P2_CONES`), finished by the friction Newton: raises on a
-    ResidualWarning, asserts ok, polished and the finish."""
+    ResidualWarning, asserts ok, polished and the finish. ``made`` (optional): a callable returning that answer
+    solved elsewhere (conftest's ``shared``, its warnings raised again), read under the same filters instead."""
     with warnings.catch_warnings():
         warnings.simplefilter("error", cc.ResidualWarning)
-        sol = cc.solve(scene, **P2_CONES)
+        sol = cc.solve(scene, **P2_CONES) if made is None else made()
     assert sol.ok and sol.polished and sol.info.finish == cc.Finish.FRICTION_NEWTON, sol.info.declined
     assert sol.info.declined is None
     return sol

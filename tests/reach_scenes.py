@@ -6,6 +6,7 @@ and the P2 nodes' consistent loads on that bottom."""
 from itertools import pairwise
 
 import numpy as np
+from friction_scenes import P, uniform_layer3d
 from hex_scenes import DELTA, SIDES, STEEL, H
 
 import cvxcontact as cc
@@ -125,3 +126,21 @@ def lowered(lo, hi, dim, drop=3e-6, kink=None):
         return np.where((x[:, 0] >= lo) & (x[:, 0] < hi), x[:, dim - 1] + below, np.inf)
     return cc.Rigid("lowered", distance, f"a floor lowered under {lo} <= x < {hi}",
                     sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
+
+
+STRIPS_LAWS = {"tresca": lambda: cc.Tresca(2 * P), "coulomb": lambda: cc.Coulomb(0.5)}
+"""The laws that hold the layer of :func:`layer_on_strips_key` stuck."""
+
+
+def layer_on_strips_key(law):
+    """(key, make) of conftest's ``shared`` for the 3 x 3 x 1 P2 layer stuck under the uniform shear tau = 0.2 p
+    (:func:`friction_scenes.uniform_layer3d`) on the strips x < 0.7, x >= 0.3 and a whole floor (three pairs on its
+    bottom), "sigma1", degree 2, under ``STRIPS_LAWS[law]`` ("tresca": Tresca 2 p; "coulomb": Coulomb 0.5): read by
+    tests/test_sides.py and test_estimate_shared_part.py (``shared(*layer_on_strips_key(law))``)."""
+
+    def make():
+        scene = uniform_layer3d(0.2 * P, STRIPS_LAWS[law](), n=3,
+                                obstacles=(strip(-1.0, 0.7), strip(0.3, 2.0), strip(-1.0, 2.0)))
+        return cc.solve(scene, "sigma1", degree=2)
+
+    return ("P2 layer stuck on strips and a floor, sigma1", law), make

@@ -23,8 +23,10 @@ from friction_scenes import (
     dragged_disk,
     finished_p2,
     pair2d,
+    pair2d_key,
     pressed_disk,
     tilted,
+    tilted_key,
     walled_disk,
 )
 
@@ -44,10 +46,26 @@ def _pair(law):
     return pair2d(law, 0.02 * P, condition="gamma3")
 
 
-def _finished(once, scene, law):
-    """``finished_p2(scene(law))`` once per module (``scene`` a builder of this module's lists): several tests read
-    the same answer."""
-    return once(("finished", scene, law), lambda: finished_p2(scene(law)))
+def _tilted7(law):
+    """:func:`friction_scenes.tilted` with 7 cells along x (its heel lifts at a node)."""
+    return tilted(law, 7)
+
+
+SHARED = {(_pair, cc.Tresca(0.03 * P)): lambda shared: shared(*pair2d_key())[0],
+          (_tilted7, cc.Coulomb(0.6)): lambda shared: shared(*tilted_key(cc.Coulomb(0.6), 7)),
+          (tilted, cc.Coulomb(0.6)): lambda shared: shared(*tilted_key(cc.Coulomb(0.6), 8)),
+          (tilted, cc.Tresca(0.6 * P)): lambda shared: shared(*tilted_key(cc.Tresca(0.6 * P), 8))}
+"""The scenes of this module whose P2 answer other modules read too, by (builder, law): their answer from conftest's
+``shared`` (pair2d_key: tests/test_friction_finish.py, test_friction_p2_gamma3.py; tilted_key:
+test_friction_p2_gamma3_checks.py), the same solve (``cc.solve(scene(law), **P2_CONES)``) once a run."""
+
+
+def _finished(once, shared, scene, law):
+    """``finished_p2(scene(law))`` once per module (``scene`` a builder of this module's lists; once a run where
+    :data:`SHARED` names it): several tests read the same answer."""
+    made = SHARED.get((scene, law))
+    return once(("finished", scene, law),
+                lambda: finished_p2(scene(law), made=None if made is None else lambda: made(shared)))
 
 
 def _solved(once, scene, law, **options):
@@ -56,7 +74,7 @@ def _solved(once, scene, law, **options):
     return once(("solved", scene, law, tuple(sorted(options.items()))), lambda: cc.solve(scene(law), **P2, **options))
 
 
-FLAT = [(_pair, cc.Tresca(0.03 * P)), (_pair, cc.Coulomb(0.3)), (lambda law: tilted(law, 7), cc.Coulomb(0.6)),
+FLAT = [(_pair, cc.Tresca(0.03 * P)), (_pair, cc.Coulomb(0.3)), (_tilted7, cc.Coulomb(0.6)),
         (tilted, cc.Coulomb(0.6)), (tilted, cc.Tresca(0.6 * P))]
 FLAT_IDS = ["pair-tresca", "pair-coulomb", "tilted7-coulomb", "tilted-coulomb", "tilted-tresca"]
 
@@ -65,11 +83,11 @@ FLAT_IDS = ["pair-tresca", "pair-coulomb", "tilted7-coulomb", "tilted-coulomb", 
 @pytest.mark.parametrize("scene, law", [(pressed_disk, cc.Coulomb(0.3)), (dragged_disk, cc.Tresca(1e6)),
                                         (dragged_disk, cc.Coulomb(0.3)), *FLAT],
                          ids=["pressed-coulomb", "dragged-tresca", "dragged-coulomb", *FLAT_IDS])
-def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law, once):
+def test_a_contact_ending_inside_an_element_is_finished_with_friction(scene, law, once, shared):
     """Finished (was declined), every check at rounding: the slack at the tangency points exactly (feasibility,
     measured at most 7.9e-17), the friction cone and the stick-slip (Coulomb's capacities those of the answer's own
     forces: its fixed point converged; measured at most 5e-14 and 6.5e-8, the latter a square root)."""
-    r = _finished(once, scene, law).residuals()
+    r = _finished(once, shared, scene, law).residuals()
     assert r["feasibility"] <= 1e-12 and r["cone"] <= 1e-12 and r["friction cone"] <= 1e-10
     assert r["stick-slip"] <= 1e-5 and r["complementarity"] <= 1e-6 and r["equilibrium"] <= 1e-10
 
@@ -94,10 +112,10 @@ def test_as_friction_vanishes_the_answer_is_the_frictionless_cones_exact_one(sce
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", [cc.Tresca(1e6), cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
-def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law, once):
+def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answers(law, once, shared):
     """The scene on the mesh reflected about x = 0 (its triangles the mirror images of the first mesh's, another
     set of elements and cut points): u_x(-x, y) = -u_x(x, y), u_y(-x, y) = u_y(x, y) (measured 2.4e-15, 1.2e-14)."""
-    a, b = _finished(once, pressed_disk, law), finished_p2(pressed_disk(law, mirrored=True))
+    a, b = _finished(once, shared, pressed_disk, law), finished_p2(pressed_disk(law, mirrored=True))
     at = {tuple(np.round(p, 12)): i for i, p in enumerate(b.points[0])}
     mirror = np.array([at[tuple(np.round(p * [-1.0, 1.0], 12) + 0.0)] for p in a.points[0]])
     assert _apart(b.u[0][mirror] * [-1.0, 1.0], a.u[0]) <= 1e-10
@@ -105,12 +123,12 @@ def test_the_block_pressed_into_a_disk_and_its_mirror_image_have_mirrored_answer
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("scene, law", FLAT, ids=FLAT_IDS)
-def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(scene, law, once):
+def test_on_flat_contact_the_answer_is_the_interior_point_at_tight_tolerances(scene, law, once, shared):
     """Between flat faces the interior point's program is the finish's (no gap departure): at tight tolerances its
     displacements are the finished ones (measured 4.0e-11, 1.5e-11 on the pair, 1.4e-10, 3.5e-14, 2.0e-14 on the
     tilted block), its own complementarity 5e-9. The pair and the tilted block at nx = 7 with Coulomb are finished
     at the tangency points from the interior point's structure (their cut rounds' steps do not settle)."""
-    sol = _finished(once, scene, law)
+    sol = _finished(once, shared, scene, law)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ipm = cc.solve(scene(law), polish=False, solver_options=TIGHT, **P2)
@@ -135,14 +153,14 @@ def test_coulomb_s_fixed_point_that_does_not_settle_declines_and_says_so(scene, 
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("scene", [pressed_disk, dragged_disk], ids=["pressed", "dragged"])
-def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene, once):
+def test_info_fixed_point_is_the_fixed_point_that_produced_the_answer(scene, once, shared):
     """Coulomb under the P2 cones, finished by its fixed point at the cut points then at the tangency points:
     ``info.fixed_point`` lists that finish's changes (measured 9 iterates, the last 8.5e-14 pressed and 1.7e-13
     dragged, <= the law's tolerance 1e-12), not the interior point's fixed point (50 iterates, its limit, last
     change 1.0e-7 and 2.2e-6: what was reported before). Declined (its ``max_iterations`` 2), the answer is the
     interior point's and so is the fixed point reported: that of the interior point alone (``polish=False``)."""
     law = cc.Coulomb(0.3)
-    sol = _finished(once, scene, law)
+    sol = _finished(once, shared, scene, law)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                  # the interior point's answer fails its checks
         interior = cc.solve(scene(law), polish=False, **P2).info.fixed_point

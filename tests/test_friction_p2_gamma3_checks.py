@@ -17,7 +17,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from friction_scenes import P, pair2d, positive_forces, steel
+from friction_scenes import P, pair2d, positive_forces, steel, tilted_key
 from reference_problems import simpson
 from scipy.optimize import minimize_scalar
 
@@ -26,7 +26,6 @@ from cvxcontact.discrete import build_problem
 from cvxcontact.fem.space import space
 
 P2 = {"condition": "gamma3", "degree": 2}
-FLOOR = cc.Rigid.plane(point=(0.0, 0.0), normal=(0.0, 1.0))
 LAGRANGE = (lambda t: 2 * (t - 0.5) * (t - 1), lambda t: -4 * t * (t - 1), lambda t: 2 * t * (t - 0.5))
 
 
@@ -111,18 +110,10 @@ def test_a_block_pressed_into_a_disk_touches_it_at_points_and_follows_tresca_law
     assert (sol.contact.force[np.abs(x[:, 0]) > 0.13] == 0).all()   # no force beyond the two elements
 
 
-def _tilted(law, nx):
-    """A free 1 m x 1 m block on the floor under (0.3 p, -p) on its top: its left heel lifts (the contact ends
-    inside an element for nx = 8, at a node for nx = 7), nothing but friction holds it along x."""
-    m = cc.rectangle(x=(0.0, 1.0), y=(0.0, 1.0), nx=nx, ny=8)
-    b = cc.Body(m, steel(), contact="bottom", traction={"top": (0.3 * P, -P)})
-    return cc.Scene(b, contacts=[cc.Contact(b, "bottom", FLOOR, law=law)])
-
-
 @pytest.mark.numerics
 @pytest.mark.parametrize("law", [cc.Tresca(0.6 * P), cc.Coulomb(0.6)], ids=["tresca", "coulomb"])
 @pytest.mark.parametrize("nx", [7, 8])
-def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law, nx):
+def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law, nx, shared):
     """Finished or not (measured: Tresca finished at nx = 7, the equal of "sigma1" to 3.4e-14, and at nx = 8 (its cut
     rounds' cycle followed by Murty's rule); Coulomb finished at nx = 7 and 8, its capacities those of the nodal
     forces made non-negative by patches, :func:`_positive`, as reported by its thresholds), the answer
@@ -132,7 +123,7 @@ def test_a_tilted_free_block_balances_its_load_and_a_declined_finish_says_so(law
     capacities bound the shear. A declined finish is named in info.declined and warned."""
     with warnings.catch_warnings(record=True) as record:
         warnings.simplefilter("always")
-        sol = cc.solve(_tilted(law, nx), **P2)
+        sol = shared(*tilted_key(law, nx))   # friction_scenes.tilted(law, nx), q = 0.3; test_friction_p2_cuts too
     warned = [w for w in record if issubclass(w.category, cc.ResidualWarning)]
     assert sol.polished == (sol.info.declined is None) and bool(warned) == (not sol.polished)
     c = sol.contact

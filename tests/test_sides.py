@@ -14,7 +14,15 @@ import numpy as np
 import pytest
 from friction_scenes import DIAGONAL3, P, uniform_layer3d
 from hex_scenes import DELTA, M_S, H
-from reach_scenes import block2d, block3d, box_on_boxes, line, lowered, strip
+from reach_scenes import (
+    block2d,
+    block3d,
+    box_on_boxes,
+    layer_on_strips_key,
+    line,
+    lowered,
+    strip,
+)
 
 import cvxcontact as cc
 from cvxcontact.contact.interface import row_frames
@@ -144,12 +152,10 @@ def test_obstacle_open_at_a_node_takes_no_share_of_it(dim, degree):
 
 
 @pytest.fixture(scope="module", params=["Tresca", "Coulomb"])
-def layer_on_strips(request):
+def layer_on_strips(request, shared):
     """The 3 x 3 x 1 P2 layer stuck under the uniform shear tau = 0.2 p (:func:`uniform_layer3d`) on strips
     x < 0.7, x >= 0.3 and a whole floor (three pairs on its bottom), under Tresca 2 p or Coulomb 0.5."""
-    law = cc.Tresca(2 * P) if request.param == "Tresca" else cc.Coulomb(0.5)
-    return cc.solve(uniform_layer3d(0.2 * P, law, n=3, obstacles=(strip(-1.0, 0.7), strip(0.3, 2.0),
-                                                                   strip(-1.0, 2.0))), "sigma1", degree=2)
+    return shared(*layer_on_strips_key(request.param.lower()))      # test_estimate_shared_part reads it too
 
 
 def _summed_t_h(sol) -> np.ndarray:

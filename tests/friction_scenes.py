@@ -250,9 +250,9 @@ def pair2d(law, q=0.02 * P, condition="sigma1"):
 
 
 def pair2d_key():
-    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer of :func:`pair2d` under Tresca 0.03 p sheared by
-    0.02 p, both lines under "gamma3", with the calls of the finish's one-row pivots (``finish.friction._pivots``, a
-    list: one entry per call): (solution, calls), read by tests/test_friction_finish.py and
+    """(key, make) of conftest's ``shared`` for the P2 "gamma3" answer of :func:`pair2d` under Tresca 0.03 p sheared
+    by 0.02 p, both lines under "gamma3", with the calls of the finish's one-row pivots (``finish.friction._pivots``,
+    a list: one entry per call): (solution, calls), read by tests/test_friction_finish.py and
     test_friction_p2_gamma3.py (``shared(*pair2d_key())``)."""
 
     def make():

@@ -233,10 +233,10 @@ class Cache:
 def load_key(problem) -> bytes:
     """A digest of what a load case sets in a prepared geometry's scaled problem: every block's loads (f, q) and
     the public arrays of its bulk energy (a non-quadratic one reads the prescribed displacements there: e0, d), the
-    gaps, the force-controlled obstacles' rows and forces and the units. Two problems of one geometry (one contact-row key,
-    :meth:`Cache.matching`) with the same key pose the same question bit for bit: what lets a route that starts a
-    new load from the previous answer (not exact: the answer then carries that start's rounding) answer a repeated
-    load with the bits it gave it (docs/explanation/known-behaviour.md, "Same question, same bits")."""
+    gaps, the force-controlled obstacles' rows and forces and the units. Two problems of one geometry (one
+    contact-row key, :meth:`Cache.matching`) with the same key pose the same question bit for bit: what lets a
+    route that starts a new load from the previous answer (not exact: the answer then carries that start's
+    rounding) answer a repeated load with the bits it gave it (docs/explanation/known-behaviour.md, "Same question, same bits")."""
     digest = hashlib.sha256(repr(astuple(problem.units)).encode())
 
     def add(a):

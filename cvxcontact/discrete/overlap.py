@@ -145,7 +145,8 @@ def warn_overlapping_thresholds(scene, lines, condition, meshes) -> list[dict]:
             "pair's own). If the obstacles are meant as one surface, split them so that each node is reached by "
             "one pair with a threshold (or give the overlap to one pair); two layers that are meant to add may be "
             "kept")
-        warning.about = (k, part, tuple(o["pairs"]))        # the same on every mesh of the scene: cc.adapt says it once
+        # the same on every mesh of the scene: cc.adapt says it once
+        warning.about = (k, part, tuple(o["pairs"]))
         warnings.warn(warning, stacklevel=user_stacklevel())
     return found
 

@@ -64,6 +64,8 @@ def runs(request):
     again; on fresh solvers the scene and the other load; with warm_start=False the scene twice, the other load and
     the scene again."""
     build, options, force, exact = CASES[request.param]
+    if options.get("method") == "amg":
+        pytest.importorskip("pyamg")                # the optional extra cvxcontact[amg]
     scene = build()
     other = other_load(scene, force)
     solver = cc.ContactSolver(scene, **options)
@@ -153,6 +155,8 @@ def test_a_kept_answer_is_not_the_users(name):
     solve's bits alone. (The scene's obstacle, reached through ``sol.obstacles``, is the scene's, not the
     answer's.)"""
     build, options, _, _ = KEPT[name]
+    if options.get("method") == "amg":
+        pytest.importorskip("pyamg")                # the optional extra cvxcontact[amg]
     solver = cc.ContactSolver(build(), **options)
     first = solver.solve()
     skip = ANSWER | {"obstacle"}

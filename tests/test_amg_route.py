@@ -148,6 +148,20 @@ def test_amg_does_not_take_2d_scenes():
     assert sol.ok and sol.info.method == "sparse"
 
 
+def traced_steps(monkeypatch, amg) -> list:
+    """The stop of each run of the AMG route's active-set steps, in order ("settled" or the Declined's name), filled
+    as the route runs them (``amg.active_set_steps`` wrapped through ``monkeypatch``)."""
+    seen, steps = [], amg.active_set_steps
+
+    def traced(*args, **kwargs):
+        out = steps(*args, **kwargs)
+        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
+        return out
+
+    monkeypatch.setattr(amg, "active_set_steps", traced)
+    return seen
+
+
 def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch):
     """Set-picking (loose) solves that return a wrong answer, the same whatever the set (x = 0, y = -1: every
     row's sign fails and the next set is always the same), make the steps cycle on the PZT box on aluminium,
@@ -156,20 +170,13 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen = []
-    steps, system = amg.active_set_steps, amg.KrylovContact._system
-
-    def traced(*args, **kwargs):
-        out = steps(*args, **kwargs)
-        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
-        return out
+    seen, system = traced_steps(monkeypatch, amg), amg.KrylovContact._system
 
     def wrong_when_loose(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         if rtol != amg.RTOL:
             return np.zeros(self.n), -np.ones(self.m)
         return system(self, active, F, g, x_start, rtol, verdict)
 
-    monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loose)
     scene = two_boxes(6)
     a = cc.solve(scene, method="amg")
@@ -184,13 +191,7 @@ def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen, tolerances = [], []
-    steps, system = amg.active_set_steps, amg.KrylovContact._system
-
-    def traced(*args, **kwargs):
-        out = steps(*args, **kwargs)
-        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
-        return out
+    seen, tolerances, system = traced_steps(monkeypatch, amg), [], amg.KrylovContact._system
 
     def wrong_when_loosest(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         tolerances.append((len(seen), rtol))
@@ -198,7 +199,6 @@ def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose
             return np.zeros(self.n), -np.ones(self.m)
         return system(self, active, F, g, x_start, rtol, verdict)
 
-    monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loosest)
     scene = two_boxes(6)
     a = cc.solve(scene, method="amg")
@@ -218,18 +218,11 @@ def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypat
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen = []
-    steps = amg.active_set_steps
-
-    def traced(*args, **kwargs):
-        out = steps(*args, **kwargs)
-        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
-        return out
+    seen = traced_steps(monkeypatch, amg)
 
     def always_wrong(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         return np.zeros(self.n), -np.ones(self.m)
 
-    monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", always_wrong)
     scene = two_boxes(6)
     with caplog.at_level(logging.INFO, logger="cvxcontact"):
@@ -247,19 +240,12 @@ def test_steps_that_cycle_by_themselves_settle_on_the_tighter_loose_stages(monke
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen, tolerances = [], []
-    steps, system = amg.active_set_steps, amg.KrylovContact._system
-
-    def traced(*args, **kwargs):
-        out = steps(*args, **kwargs)
-        seen.append(out.stop.name if isinstance(out, Declined) else "settled")
-        return out
+    seen, tolerances, system = traced_steps(monkeypatch, amg), [], amg.KrylovContact._system
 
     def logged(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
         tolerances.append((len(seen), rtol))
         return system(self, active, F, g, x_start, rtol, verdict)
 
-    monkeypatch.setattr(amg, "active_set_steps", traced)
     monkeypatch.setattr(amg.KrylovContact, "_system", logged)
     a = cc.solve(_elastic_boxes(1e9, 14), method="amg")
     assert seen == ["CYCLE", "settled"], "the scene no longer cycles: pick one that does to test the retry"

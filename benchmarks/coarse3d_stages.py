@@ -13,8 +13,6 @@ Run (one thread):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/coarse3d_stages.py plate 55 4
 """
 
-import collections
-import functools
 import sys
 import time
 import warnings
@@ -25,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import scenes3d
+from harness import StageTimes
 
 import cvxcontact as cc
 from cvxcontact.backends import factor as fm
@@ -41,27 +40,8 @@ else:
     p = cc.ContactSolver(scenes3d.offset_boxes(n) if scene == "offset" else scenes3d.two_boxes(n)).problem
 blocks, E, g = list(p.blocks), p.E, np.asarray(p.g, dtype=float)
 F = np.concatenate([quasi_definite_rhs(b) for b in blocks])
-acc = collections.defaultdict(lambda: [0, 0.0, 0.0])            # label -> calls, inclusive, PARDISO inside
-stack = []
-
-
-def wrap(owner, name, label, pardiso=False):
-    inner = getattr(owner, name)
-
-    @functools.wraps(inner)
-    def timed(*args, **kw):
-        t0 = time.process_time()
-        stack.append(0.0)
-        try:
-            return inner(*args, **kw)
-        finally:
-            dt, inside = time.process_time() - t0, stack.pop()
-            inside = dt if pardiso else inside
-            if stack:
-                stack[-1] += inside
-            row = acc[label]
-            row[0], row[1], row[2] = row[0] + 1, row[1] + dt, row[2] + inside
-    setattr(owner, name, timed)
+stages = StageTimes()
+wrap = stages.wrap
 
 
 wrap(fm.PardisoFactorization, "_call", "PARDISO (phases 12, 331)", pardiso=True)
@@ -77,15 +57,12 @@ wrap(fm.Factorization, "__init__", "Factorization.__init__ (W_c's Cholesky)")
 totals, starts = [], []
 for r in range(reps):
     if r == 1:
-        acc.clear()
+        stages.acc.clear()
     sc = sm.SparseContact(blocks, E, factorization="auto")
     t0 = time.process_time()
     starts.append(sc.coarse_start(F, g))
     totals.append(time.process_time() - t0)
-k = max(reps - 1, 1)
 st = starts[-1]
 print(f"{scene}({n}): {len(g)} rows, n = {sc.n}; start {None if st is None else int(st.sum())} rows; "
       f"coarse_start {[round(t, 3) for t in totals]} s; per call (rounds 2-{reps}), ms:")
-for label, (calls, inc, inside) in sorted(acc.items(), key=lambda kv: -kv[1][1]):
-    print(f"{label:44s} calls {calls / k:5.1f}  inclusive {inc / k * 1e3:7.1f}  PARDISO {inside / k * 1e3:7.1f}  "
-          f"rest {(inc - inside) / k * 1e3:7.1f}")
+print("\n".join(stages.lines(reps - 1, by_rest=False)))

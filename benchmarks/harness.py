@@ -24,7 +24,9 @@ NumPy and SciPy only at import; cvxcontact, pyamg and pypardiso are imported by 
 
 from __future__ import annotations
 
+import collections
 import csv
+import functools
 import json
 import os
 import resource
@@ -39,6 +41,43 @@ from pathlib import Path
 import numpy as np
 
 # ------------------------------------------------------------------------------------------------ plumbing
+
+
+class StageTimes:
+    """Process CPU seconds by stage: :meth:`wrap` replaces ``owner.name`` by a timer (inclusive) that also sums the
+    time of the calls wrapped with ``pardiso=True`` made inside it (PARDISO's share); the stages nest, so a row's
+    rest (inclusive less PARDISO) is that stage's own work with its callees'. ``acc[label]``: calls, inclusive,
+    PARDISO inside (benchmarks/longif_stages.py, coarse3d_stages.py)."""
+
+    def __init__(self):
+        self.acc = collections.defaultdict(lambda: [0, 0.0, 0.0])
+        self._stack: list[float] = []
+
+    def wrap(self, owner, name: str, label: str, pardiso: bool = False) -> None:
+        inner, acc, stack = getattr(owner, name), self.acc, self._stack
+
+        @functools.wraps(inner)
+        def timed(*args, **kw):
+            t0 = time.process_time()
+            stack.append(0.0)
+            try:
+                return inner(*args, **kw)
+            finally:
+                dt, inside = time.process_time() - t0, stack.pop()
+                inside = dt if pardiso else inside
+                if stack:
+                    stack[-1] += inside
+                row = acc[label]
+                row[0], row[1], row[2] = row[0] + 1, row[1] + dt, row[2] + inside
+        setattr(owner, name, timed)
+
+    def lines(self, rounds: int, by_rest: bool) -> list[str]:
+        """One line per stage, per round (``rounds`` counted), in ms: largest rest first (``by_rest``) or largest
+        inclusive time first."""
+        k = max(rounds, 1)
+        order = sorted(self.acc.items(), key=lambda kv: -(kv[1][1] - kv[1][2] if by_rest else kv[1][1]))
+        return [f"{label:44s} calls {calls / k:5.1f}  inclusive {inc / k * 1e3:7.1f}  PARDISO {inside / k * 1e3:7.1f}"
+                f"  rest {(inc - inside) / k * 1e3:7.1f}" for label, (calls, inc, inside) in order]
 
 
 def peak_gb() -> float:

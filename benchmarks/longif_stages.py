@@ -12,15 +12,13 @@ Run (one thread):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/longif_stages.py 3000 4
 """
 
-import collections
-import functools
 import sys
 import time
 import warnings
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from harness import thin_layer_route
+from harness import StageTimes, thin_layer_route
 
 from cvxcontact.backends import factor as fm
 from cvxcontact.backends import sparse as sm
@@ -28,27 +26,8 @@ from cvxcontact.backends import sparse as sm
 warnings.simplefilter("ignore")
 n, reps = int(sys.argv[1]), int(sys.argv[2])
 blocks, E, g, F, bonded = thin_layer_route(n)
-acc = collections.defaultdict(lambda: [0, 0.0, 0.0])            # label -> calls, inclusive, PARDISO inside
-stack = []
-
-
-def wrap(owner, name, label, pardiso=False):
-    inner = getattr(owner, name)
-
-    @functools.wraps(inner)
-    def timed(*args, **kw):
-        t0 = time.process_time()
-        stack.append(0.0)
-        try:
-            return inner(*args, **kw)
-        finally:
-            dt, inside = time.process_time() - t0, stack.pop()
-            inside = dt if pardiso else inside
-            if stack:
-                stack[-1] += inside
-            row = acc[label]
-            row[0], row[1], row[2] = row[0] + 1, row[1] + dt, row[2] + inside
-    setattr(owner, name, timed)
+stages = StageTimes()
+wrap = stages.wrap
 
 
 wrap(fm.PardisoFactorization, "_call", "PARDISO, coarse start", pardiso=True)
@@ -67,14 +46,11 @@ wrap(fm.Factorization, "__init__", "Factorization.__init__ (Sigma's Cholesky)")
 totals = []
 for r in range(reps):
     if r == 1:
-        acc.clear()
+        stages.acc.clear()
     t0 = time.process_time()
     sc = sm.SparseContact(blocks, E, factorization="auto")
     st = sc.coarse_start(F, g) if len(g) >= sm.COARSE_ROWS else None
     sc.solve(F, g, st)
     totals.append(time.process_time() - t0)
-k = max(reps - 1, 1)
 print(f"thin_layer({n}): routes {[round(t, 3) for t in totals]} s; per route (rounds 2-{reps}), ms:")
-for label, (calls, inc, inside) in sorted(acc.items(), key=lambda kv: -(kv[1][1] - kv[1][2])):
-    print(f"{label:44s} calls {calls / k:5.1f}  inclusive {inc / k * 1e3:7.1f}  PARDISO {inside / k * 1e3:7.1f}  "
-          f"rest {(inc - inside) / k * 1e3:7.1f}")
+print("\n".join(stages.lines(reps - 1, by_rest=True)))

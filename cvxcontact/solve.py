@@ -343,8 +343,9 @@ class ContactSolver:
         backend solves the problem again (the sparse route: 1-2 steps from the condensed active set); it is
         kept for later load cases of this geometry if its answer passes."""
         t1, stages = time.perf_counter(), {}            # its stages are inside "fallback", not added twice
-        log.info("the %s answer fails its checks (%s); falling back to %r", self.method,
-                 ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol), fallback.method)
+        failed = (f"the {self.method} answer fails its checks ("
+                  + ", ".join(f"{k} {v:.2g}" for k, v in sol.residuals().items() if v > self.tol) + ")")
+        log.info("%s; falling back to %r", failed, fallback.method)
         try:
             raw = run(fallback.method, problem, self._cache, self.settings, stages)
         except SolverError as exc:
@@ -359,7 +360,8 @@ class ContactSolver:
             return sol
         log.info("the %s fallback passes its checks; later load cases of this geometry use it", fallback.method)
         self.method = fallback.method
-        other.info = replace(other.info, route=fallback.route)
+        other.info = replace(other.info, route=fallback.route,
+                             handed_over="; ".join(r for r in (failed, other.info.handed_over) if r))
         return other
 
     def _warn(self, sol, raw) -> None:

@@ -146,6 +146,8 @@ def test_amg_does_not_take_2d_scenes():
     pytest.importorskip("pyamg")
     sol = cc.solve(two_blocks(6), method="amg")          # 2D: handed to the sparse route
     assert sol.ok and sol.info.method == "sparse"
+    assert sol.info.handed_over.startswith("the AMG route cannot take it: method 'amg'")
+    assert f"amg -> sparse, route: {Route.SPARSE_ACTIVE_SET} (handed over: the AMG" in sol.report()
 
 
 def traced_steps(monkeypatch, amg) -> list:
@@ -230,6 +232,9 @@ def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypat
     assert seen == ["CYCLE"] * len(amg.RETRIES) and a.ok and a.info.method == "sparse"
     assert any("AMG route" in r.getMessage() and "cycle" in r.getMessage() for r in caplog.records)
     fields_agree(a, cc.solve(scene, method="sparse"), 1e-12)            # measured 0 (the same factorised steps)
+    assert a.info.handed_over.startswith("the AMG route's steps stopped: ") and "cycle" in a.info.handed_over
+    assert a.report().splitlines()[1] == (f"  method           amg -> sparse, route: {Route.SPARSE_ACTIVE_SET} "
+                                          f"(handed over: {a.info.handed_over})")
 
 
 def test_steps_that_cycle_by_themselves_settle_on_the_tighter_loose_stages(monkeypatch):

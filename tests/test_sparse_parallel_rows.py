@@ -86,6 +86,11 @@ def test_sparse_route_hands_over_to_the_condensed_route_where_its_steps_do_not_s
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.ok and sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert u_gap(sol, p2_3d["condensed"]) < 1e-13
+    reason = "the active-set steps on the sparse mixed system did not settle (they cycled or met a singular system)"
+    assert sol.info.handed_over == reason               # the words of the log, on the solution and in its report
+    assert sol.report().splitlines()[1] == (f"  method           auto -> condensed, route: "
+                                            f"{cc.Route.SPARSE_HANDED_OVER} (handed over: {reason})")
+    assert p2_3d["condensed"].info.handed_over == "" and "handed over" not in p2_3d["condensed"].report()
 
 
 def test_a_handed_over_scene_solved_again_gives_its_first_bits(p2_3d, monkeypatch):

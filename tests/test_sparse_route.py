@@ -236,6 +236,10 @@ def test_auto_falls_back_to_the_sparse_route_when_the_condensed_answer_fails_its
         sol = solver.solve()
         again = solver.solve(thin_layer(50, pressure=0.5e6))
     assert sol.ok and sol.info.method == "sparse" and sol.info.route == cc.Route.SPARSE_FALLBACK
+    assert sol.info.handed_over.startswith("the condensed answer fails its checks (complementarity")
+    assert sol.report().splitlines()[1] == (f"  method           auto -> sparse, route: {cc.Route.SPARSE_FALLBACK} "
+                                            f"(handed over: {sol.info.handed_over})")
+    assert kept.report().splitlines()[1] == f"  method           auto -> condensed, route: {kept.info.route}"
     for a, b in zip(ref.u, sol.u):
         assert rel(b, a) < 1e-10
     assert again.ok and again.info.method == "sparse"

@@ -615,10 +615,10 @@ def signorini(problem, cache, settings, timings):
     if cache.amg is None:
         try:
             cache.amg = KrylovContact(problem)
-        except SolverError:
+        except SolverError as exc:
             if not available():
                 raise
-            return sparse(problem, cache, settings, timings)
+            return _handed_over(sparse(problem, cache, settings, timings), f"the AMG route cannot take it: {exc}")
     kc = cache.amg
     setup = kc.setup_time
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
@@ -636,9 +636,17 @@ def signorini(problem, cache, settings, timings):
     if out is None:
         log.info("the AMG route hands the problem to the sparse route: %s (after %d attempts of amg.RETRIES)",
                  kc.declined, len(RETRIES))
-        return sparse(problem, cache, settings, timings)
+        return _handed_over(sparse(problem, cache, settings, timings),
+                            f"the AMG route's steps stopped: {kc.declined} (after {len(RETRIES)} attempts)")
     u, phi, y, active, steps = out
     cache.active = active
     return RawResult(u=u, phi=phi, y=y, active=active, polished=True, iterations=steps, method="amg",
                      route=Route.WARM_START if warm else Route.KRYLOV_ACTIVE_SET, finish="active set",
                      factorization="pyamg")
+
+
+def _handed_over(raw, reason: str):
+    """``raw``, the sparse route's answer to a problem the AMG route handed over, with ``reason`` first in its
+    ``handed_over`` (before the sparse route's own hand-over to the condensed route, if it made one)."""
+    raw.handed_over = "; ".join(r for r in (reason, raw.handed_over) if r)
+    return raw

@@ -180,6 +180,10 @@ class RawResult:
     """Against a curved obstacle's true gap (docs/formulation.md §8, "Rigid obstacles"): per element, the
     finish's point forces' sum y_p delta(x_p) (scaled), so that their pairing with the true slack is
     beta . b - pairing; None where the answer's duals are no such point forces (or there is no departure)."""
+    handed_over: str = ""
+    """Where the route asked for handed the problem to another (:attr:`Route.SPARSE_HANDED_OVER`, the AMG route's
+    hand-over to the sparse route), why, in words (the reasons of each hand-over in turn, "; "-joined); "" where
+    none did (SolveInfo.handed_over)."""
     kept: str = INTERIOR_POINT_KEPT
     """Where a finish was declined (``declined``), what the arrays are, in the words of the warning
     (:func:`declined_words`): the interior point's answer, or the answer the caller that labels the decline keeps

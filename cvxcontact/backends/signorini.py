@@ -286,7 +286,7 @@ def _hand_over(problem, cache, settings, timings, reason: str) -> RawResult:
     log.info("%s; the condensed route answers instead", reason)
     cache.active = None         # from no previous set: a fresh solver's hand-over, bit for bit
     raw = condensed(problem, cache, settings, timings)
-    raw.route = Route.SPARSE_HANDED_OVER
+    raw.route, raw.handed_over = Route.SPARSE_HANDED_OVER, reason
     cache.active = None         # the next solve's sparse steps start cold too: warm from this set they may settle
     return raw                  # (sparse bits), where a fresh solver hands over again (condensed bits)
 

@@ -81,6 +81,11 @@ class SolveInfo:
         :class:`~cvxcontact.backends.finish.declined.Declined` (a string, its full words; ``.stop`` what stopped
         it, ``.phrase`` the short phrase :meth:`~cvxcontact.solution.Solution.report` shows); None if the arrays
         are an exact finish or none was declined. A plain string becomes a ``Declined`` of ``Stop.GIVEN``.
+    handed_over : str
+        Where the route of ``requested`` handed the problem to another (:attr:`Route.SPARSE_HANDED_OVER`; the AMG
+        route to the sparse route, :mod:`cvxcontact.backends.amg`; ``auto``'s fallback, :attr:`Route.SPARSE_FALLBACK`),
+        why, in words (each hand-over's in turn, "; "-joined; :meth:`~cvxcontact.solution.Solution.report` shows it);
+        "" where none did.
     kept : str
         Where a finish was declined (``declined``), what the arrays are, in words: "interior-point answer", or
         the answer the finish's caller kept instead (the P2 cones with friction: "cut rounds' answer", exact to
@@ -101,6 +106,7 @@ class SolveInfo:
     declined: Declined | None = None
     released: bool = False
     kept: str = ""
+    handed_over: str = ""
 
     def __post_init__(self):
         object.__setattr__(self, "status", Status(self.status))
@@ -111,6 +117,7 @@ class SolveInfo:
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
         object.__setattr__(self, "released", bool(self.released))
+        object.__setattr__(self, "handed_over", str(self.handed_over))
         object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
         try:
             object.__setattr__(self, "declined", Declined.of(self.declined))

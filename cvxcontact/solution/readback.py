@@ -89,5 +89,6 @@ def read_back(problem, raw, tol: float, timings: dict, requested: str = "") -> S
                        finish=raw.finish if raw.polished and raw.finish else None,
                        factorization=raw.factorization, fixed_point=raw.fixed_point or (), released=raw.released,
                        declined=None if raw.polished else raw.declined,
-                       kept=raw.kept if raw.declined is not None and not raw.polished else "")
+                       kept=raw.kept if raw.declined is not None and not raw.polished else "",
+                       handed_over=raw.handed_over)
     return sol

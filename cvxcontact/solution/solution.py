@@ -457,14 +457,19 @@ class Solution:
         Returns
         -------
         str
-            The condition, the status, the exact finish or why it was declined, each check of (26)-(27) against
-            ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode
+            The condition, the status, the exact finish or why it was declined; the method asked for, the backend
+            that answered if another (``"auto -> condensed"``) and the route taken, with why the problem was
+            handed over where it was (``info.handed_over``); each check of (26)-(27) against ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode
             its potential (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; :attr:`estimate`.
         """
         declined = self.info.declined
         finish = ("exact finish" if self.polished else (self.info.kept or INTERIOR_POINT_KEPT)
                   + (f" (exact finish declined: {declined.phrase})" if declined else ""))
-        lines = [f"condition {self.condition}, solver status {self.status}, {finish}"]
+        info = self.info
+        ran = info.requested if info.method == info.requested else f"{info.requested} -> {info.method}"
+        lines = [f"condition {self.condition}, solver status {self.status}, {finish}",
+                 f"  method           {ran}, route: {info.route}"
+                 + (f" (handed over: {info.handed_over})" if info.handed_over else "")]
         lines += [f"  {k:16s} {v:.2e}  {'ok' if v <= self.tol else 'ok (certified)' if self._passes(k) else 'FAILED'}"
                   for k, v in self._checks.items()]
         unit, charge = force_unit(self), "C" if self.scene.dim == 3 else "C/m"

@@ -1,5 +1,6 @@
 """A/B in one process: the AMG route's retry of steps that cycle on loose solves, on the tighter loose stages first
-(``amg.RETRIES`` = (STEP_RTOLS, STEP_RTOLS[2:], ())) against tight solves at once ((STEP_RTOLS, ()), before).
+(``amg.RETRIES`` = (1.0, 1e-4, 0.0): the stages STEP_RTOLS, STEP_RTOLS[2:], (), :func:`amg.loose_stages`) against
+tight solves at once ((1.0, 0.0): STEP_RTOLS, (), before).
 
 Scene: ``two_boxes`` (tests/scenes3d.py, PZT-5A on aluminium, "sigma1"), sizes as counts of unknowns as in
 benchmarks/bench3d.py (1.5e5: n = 38; 4e5: n = 52, 366,062 unknowns, where the loose steps cycle). Per size,
@@ -39,7 +40,7 @@ def main() -> None:
     ap.add_argument("--sizes", type=float, nargs="+", default=[1.5e5, 4e5])
     ap.add_argument("--pairs", type=int, default=2)
     args = ap.parse_args()
-    codes = {"before": (amg.STEP_RTOLS, ()), "after": amg.RETRIES}
+    codes = {"before": (1.0, 0.0), "after": amg.RETRIES}        # ceilings of the loose stages (amg.loose_stages)
     cc.solve(two_boxes(4), method="amg")                                  # imports, first-call set-up
     for size in args.sizes:
         n = cells("two_boxes", size, False)

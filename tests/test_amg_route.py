@@ -210,6 +210,35 @@ def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose
     fields_agree(a, cc.solve(scene, method="sparse"), 2e-8)             # measured 1.3e-10 (5 kernels)
 
 
+def test_the_retries_follow_a_changed_step_rtols(monkeypatch):
+    """``amg.RETRIES`` is read through ``amg.STEP_RTOLS`` when the steps run (it copied STEP_RTOLS at import
+    before, so a changed STEP_RTOLS left the retries on the old stages): by default the stages of each attempt are
+    STEP_RTOLS, STEP_RTOLS[2:], () as before; with STEP_RTOLS = (1e-2, 1e-5) and wrong answers from the stage
+    1e-2 (x = 0, y = -1) the steps cycle and the retry runs the new stage 1e-5 (at or below 1e-4), then RTOL, and
+    settles on the sparse route's answer."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    assert [amg.loose_stages(c) for c in amg.RETRIES] == [amg.STEP_RTOLS, amg.STEP_RTOLS[2:], ()]
+    monkeypatch.setattr(amg, "STEP_RTOLS", (1e-2, 1e-5))
+    seen, tolerances, system = traced_steps(monkeypatch, amg), [], amg.KrylovContact._system
+
+    def wrong_when_loosest(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        tolerances.append((len(seen), rtol))
+        if rtol > 1e-4:
+            return np.zeros(self.n), -np.ones(self.m)
+        return system(self, active, F, g, x_start, rtol, verdict)
+
+    monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loosest)
+    scene = two_boxes(6)
+    a = cc.solve(scene, method="amg")
+    assert seen == ["CYCLE", "settled"] and a.info.method == "amg" and a.ok
+    assert {rtol for attempt, rtol in tolerances if attempt == 0} <= {1e-2, 1e-5, amg.RTOL}
+    retry = [rtol for attempt, rtol in tolerances if attempt == 1]
+    assert retry[0] == 1e-5 and set(retry) == {1e-5, amg.RTOL}, retry
+    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)    # measured u 6.7e-11, phi 5.7e-11, force 3.0e-11
+
+
 def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypatch, caplog):
     """Wrong answers at every tolerance, RTOL included (x = 0, y = -1, whatever the set), make the steps cycle on
     the first attempt and on each retry of ``amg.RETRIES``: the retries are bounded (one attempt each, then the

@@ -75,7 +75,7 @@ from .sparse import row_weights
 log = logging.getLogger(__name__)
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "v_cycle"]
+           "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "loose_stages", "v_cycle"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -107,8 +107,10 @@ iterations without it, 8 and 67 with it; 4.1e5: 11 and 89, 10 and 84, the same f
 it the loose steps cycled (a set's 1e-2 solve pointed to a set whose 1e-4 solve pointed back) and were retried
 on tight solves (benchmarks/results/bench3d_scale.md)."""
 
-RETRIES = (STEP_RTOLS, STEP_RTOLS[2:], ())
-"""The loose stages (:data:`STEP_RTOLS`) of the active-set steps, then of their retries, each followed by RTOL: steps
+RETRIES = (1.0, 1e-4, 0.0)
+"""The loosest stage of :data:`STEP_RTOLS` the active-set steps, then each of their retries, may use
+(:func:`loose_stages`: the stages at or below it, read from STEP_RTOLS when the steps run, so a changed STEP_RTOLS
+changes the retries too), each followed by RTOL. By default every stage, then (1e-4, 1e-6), then none: steps
 that cycle on loose solves (a set's loose answer points to a set already seen) are retried from the last set on
 the tighter loose stages (1e-4, 1e-6), then, if they cycle again, on tight solves alone (a retry that cycles on
 those hands the problem to the sparse route). Measured on two_boxes "sigma1" at 366,062 unknowns (n = 52,
@@ -117,6 +119,12 @@ pointed back; retried on tight solves, 2390 and then 2391 took 47 and 44 Krylov 
 (1e-4, 1e-6) first, 2 + 8 + 13 + 28, 78 in all, the same final set (benchmarks/results/bench3d_scale.md)."""
 
 AMG_INSTALL = 'pip install "cvxcontact[amg]"'
+
+
+def loose_stages(ceiling: float) -> tuple:
+    """The loose stages of :data:`STEP_RTOLS` (as it is now) at or below ``ceiling`` (an entry of :data:`RETRIES`),
+    loosest first: by default STEP_RTOLS (ceiling 1.0), STEP_RTOLS[2:] (1e-4), () (0.0)."""
+    return tuple(rtol for rtol in STEP_RTOLS if rtol <= ceiling)
 
 LOOSE_KEEP = 16
 """Preconditioned Krylov vectors a loose GMRES solve (:data:`STEP_RTOLS`) keeps (:func:`gmres` ``keep``), so that
@@ -585,8 +593,9 @@ class KrylovContact:
                     return (x, y), new
             return (x, y), None
 
-        for loose in RETRIES:                    # steps that cycle on loose solves: retried on tighter ones
-            out = active_set_steps(lambda a: step(a, loose + (RTOL,)), last[0], max_iter)
+        for ceiling in RETRIES:                  # steps that cycle on loose solves: retried on tighter ones
+            stages = loose_stages(ceiling) + (RTOL,)
+            out = active_set_steps(lambda a, stages=stages: step(a, stages), last[0], max_iter)
             if not isinstance(out, Declined) or out.stop is Stop.SINGULAR:
                 break
         self._reduction = None

@@ -102,7 +102,11 @@ def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
     to a warning issued there: ``filterwarnings(module=...)`` matches a module's name (``warn_explicit`` without
     ``module`` would match the file's path without ".py" instead), and the once-per-place registry is the
     module's. The module is read from the frame of the call stack running that file (the caller's line, named by
-    :func:`user_stacklevel`), else from the imported module of that file, else from the file's name."""
+    :func:`user_stacklevel`), else from the imported module of that file, else from the file's name.
+
+    The de-duplication of the actions "default", "module" and "once" holds as for a warning issued there
+    (:func:`_shown_before`): the package's own ``catch_warnings`` (each step of ``cc.adapt``) changes the filters'
+    version, which empties every registry, so each step and each call printed the same warning again."""
     for w in caught:
         frame, where = sys._getframe(1), None
         while frame is not None and where is None:
@@ -113,9 +117,41 @@ def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
                           if isinstance(d, dict) and d.get("__file__") == w.filename), None)
         if where is None:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-        else:
+        elif not _shown_before(w, where.get("__name__")):
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, module=where.get("__name__"),
                                    registry=where.setdefault("__warningregistry__", {}), module_globals=where)
+
+
+_SHOWN: dict = {}
+"""What :func:`reissue` has shown under a de-duplicating action: {module name ("" for "once"): (the filters list
+object, its contents, the keys shown)}."""
+
+
+def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
+    """Whether the caller's filters (``warnings.filters`` as it is now) de-duplicate the recorded warning ``w``
+    issued under ``module`` ("default": per text, category and line; "module": per text and category in the module;
+    "once": per text and category) and :func:`reissue` showed it already under the same filters: the same list
+    object (a caller's ``catch_warnings`` makes a new one; the package's own restores it) with the same entries
+    (``filterwarnings``, ``simplefilter`` and ``resetwarnings`` change them). Python's registries forget what they
+    showed at any change of the filters, the package's own ``catch_warnings`` included; this record does not
+    forget on those. Records ``w`` as shown if it will be."""
+    text = str(w.message) if isinstance(w.message, Warning) else w.message
+    category = w.message.__class__ if isinstance(w.message, Warning) else w.category
+    action = next((a for a, msg, cat, mod, line in warnings.filters
+                   if (msg is None or msg.match(text)) and issubclass(category, cat)
+                   and (mod is None or mod.match(module or "")) and (line == 0 or line == w.lineno)),
+                  warnings.defaultaction)
+    key = {"default": (text, category, w.lineno), "module": (text, category, 0), "once": (text, category)}.get(action)
+    if key is None:
+        return False
+    scope, filters = "" if action == "once" else module, warnings.filters
+    same, contents, shown = _SHOWN.get(scope, (None, None, set()))
+    if same is not filters or contents != tuple(filters):
+        shown = set()
+    seen = key in shown
+    shown.add(key)
+    _SHOWN[scope] = (filters, tuple(filters), shown)
+    return seen
 
 
 class SweepResultsError(CvxContactError, ValueError):

@@ -187,6 +187,32 @@ def test_a_filter_by_the_callers_module_applies_from_every_entry_point(entry):
         assert len(_where(caught, cc.ResolutionWarning)) == shown, (action, other)
 
 
+def test_adapt_s_warnings_are_shown_once_per_place_under_the_default_action():
+    """Under the "default" action a warning is shown once per text, category and line, as Python does for one
+    issued there: cc.adapt re-issues each step's warnings after the step's ``catch_warnings``, which changes the
+    filters' version and so emptied the registries, and every step and every call showed the same warning again
+    (here, two calls of 3 steps: 6 NonUniqueWarnings and 2 ResolutionWarnings, as under "always"; now 1 and 1). The
+    actions "module" and "once" de-duplicate likewise; a caller's new ``catch_warnings`` starts afresh, as Python's
+    registries do."""
+    def calls():
+        for _ in range(2):
+            cc.adapt(_one_node(), "sigma1", max_steps=2)
+
+    def counts(caught):
+        return [sum(issubclass(w.category, c) for w in caught) for c in (cc.NonUniqueWarning, cc.ResolutionWarning)]
+
+    for action, expected in (("always", [6, 2]), ("default", [1, 1]), ("module", [1, 1]), ("once", [1, 1])):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter(action)
+            calls()
+        assert counts(caught) == expected, action
+        assert {w.filename for w in caught} == {__file__}
+    with warnings.catch_warnings(record=True) as caught:           # a new context: shown again, once
+        warnings.simplefilter("default")
+        calls()
+    assert counts(caught) == [1, 1]
+
+
 def test_reissue_names_the_module_of_a_line_off_the_stack(tmp_path, monkeypatch):
     """A recorded warning whose line is no longer running (a library's) is issued again under that file's
     imported module; a file no module holds keeps warn_explicit's own module, the file's path without ".py"."""

@@ -6,7 +6,9 @@ case. Between the Schur complements and the final back-substitution only Sigma (
 program are needed, so where memory is short each body's factors are freed right after its Sigma and its load's
 forward sweep are taken (:class:`~cvxcontact.backends.released.Released`), and the back-substitution re-makes one
 body's interior factorisation at a time: the peak is then the larger of one body's factorisation and the interface
-program, not their sum. Small scenes keep their factors (re-solves reuse them at today's speed).
+program, not their sum. Such a body keeps no |K| values for the checks either (8 bytes per stored entry a re-solve
+would keep otherwise, :meth:`~cvxcontact.discrete.blocks.Block.keep_no_abs`). Small scenes keep their factors
+(re-solves reuse them at today's speed).
 
 The decision is measured, not guessed: after body k's factorisation, with M_k the bytes its factors hold (PARDISO's
 own report, iparm[14]-[16]) and A the machine's available memory now (``MemAvailable`` of /proc/meminfo), the

@@ -30,7 +30,8 @@ class Condensation:
     contact forces y on the rows back to every body's (u, phi) (one backward sweep per body);
     :meth:`invert_gamma` does the same from Gamma values v instead (the interior dofs for given v). Where
     memory is short (:mod:`cvxcontact.backends.budget`) a body's factors are freed once its Sigma and its load's
-    forward sweep are taken, and each later sweep re-makes its interior factorisation (:attr:`released`).
+    forward sweep are taken, and each later sweep re-makes its interior factorisation (:attr:`released`); the
+    checks' |K| values go with them (:meth:`~cvxcontact.discrete.blocks.Block.keep_no_abs`).
     """
 
     def __init__(self, problem, settings, timings, whole: bool = True):
@@ -40,6 +41,9 @@ class Condensation:
         budget = Budget([_nonzeros(b) for b in blocks], [len(contact_dofs(b)) for b in blocks])
         self.bodies = [condense(b, s, m, settings.factorization, held=h, budget=budget)   # held: forced.py only
                        for b, s, m, h in zip(blocks, problem.matrices, problem.meshes, held)]
+        for b, c in zip(blocks, self.bodies):
+            if isinstance(c.factor, Released):     # memory short: the checks' |K| store goes with the factors
+                b.keep_no_abs()
         # a body held by the contact only has a singular Sigma: no compliance (backends/forced.py does without)
         self.compliance = None if any(held) else Compliance(self.bodies, problem.E)
         if whole and self.compliance is not None:

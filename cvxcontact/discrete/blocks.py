@@ -94,6 +94,10 @@ def _congruence(A, K, B):
     return (A.T @ K @ B).tocsr()
 
 
+NONE_KEPT = "none kept"
+"""The key of :attr:`Block.absolute` that says no |K| values are kept (:meth:`Block.keep_no_abs`)."""
+
+
 @dataclass
 class Block:
     """Scaled, Dirichlet-restricted blocks of one body (free dofs only, dimensionless)."""
@@ -106,7 +110,8 @@ class Block:
     q: np.ndarray | None = None
     bulk: BulkEnergy | None = None      # the mechanical energy (:mod:`cvxcontact.discrete.energy`; set by with_loads)
     products: dict = field(default_factory=dict, repr=False, compare=False)   # the last K z (:meth:`_times`)
-    absolute: dict = field(default_factory=dict, repr=False, compare=False)   # |K|'s values (:meth:`abs_values`)
+    absolute: dict = field(default_factory=dict, repr=False, compare=False)   # |K|'s values (:meth:`abs_values`;
+    # the entry NONE_KEPT: none kept from now on, :meth:`keep_no_abs`)
 
     def __post_init__(self):
         for name in ("Kuu", "jump", "Kup", "Kpp"):          # canonical and read-only: a solve cannot reorder them
@@ -169,7 +174,8 @@ class Block:
         first asked and kept while the matrix is the same object. A load case's blocks share this store
         (:meth:`with_loads` keeps it: the same matrices), so |K| is formed once per problem, not per check: 8 bytes
         per stored entry of Kuu, Kup and Kpp (Kup^T reads Kup's), sharing K's index arrays. The checks ask it from
-        their second product of a matrix on (:meth:`_abs_times`)."""
+        their second product of a matrix on (:meth:`_abs_times`), unless the store keeps none (:meth:`keep_no_abs`:
+        the body's factors freed, memory short)."""
         source = self.Kup if name == "KupT" else getattr(self, name)
         kept = self.absolute.get(name)
         if kept is None or kept[0] is not source or kept[1] is None:
@@ -192,8 +198,18 @@ class Block:
         if kept is not None and kept[0] is source:
             M, values = self.abs_values(name)
             return abs_product(M, z, values)
-        self.absolute[name] = (source, None, None)              # asked once: kept if asked again
+        if NONE_KEPT not in self.absolute:
+            self.absolute[name] = (source, None, None)          # asked once: kept if asked again
         return abs_product(source.T if name == "KupT" else source, z)
+
+    def keep_no_abs(self) -> None:
+        """Drop |K|'s values kept for Kuu, Kup and Kpp (:meth:`abs_values`) and keep none from now on, for every load
+        case of this problem (they share the store): each |K| |x| of the checks then forms them block by block, as
+        a first product does (the same numbers). Where the condensed route freed this body's factors because memory
+        was short (:mod:`cvxcontact.backends.budget`), the 8 bytes per stored entry a re-solve would keep are freed
+        with them: a re-solve's peak is then not raised by the store, as a one-shot solve's is not."""
+        self.absolute.clear()
+        self.absolute[NONE_KEPT] = (None, None, None)
 
     def loads(self):
         """The right-hand side [f; q] of (26)."""

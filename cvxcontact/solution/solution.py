@@ -457,10 +457,9 @@ class Solution:
         Returns
         -------
         str
-            The condition, the status, the exact finish or why it was declined; the method asked for, the backend
-            that answered if another (``"auto -> condensed"``) and the route taken, with why the problem was
-            handed over where it was (``info.handed_over``); each check of (26)-(27) against ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction` and active nodes; per electrode
-            its potential (V) and charge (C/m; C in 3D); per obstacle its translation (m) and force; :attr:`estimate`.
+            Condition, status, exact finish or why declined; method asked, backend run, route, why handed over;
+            each check of (26)-(27) against ``tol``; per pair its force (N/m; N in 3D), :meth:`contact_fraction`, active
+            nodes; per electrode potential (V), charge (C/m; C in 3D); per obstacle translation (m), force; estimate.
         """
         declined = self.info.declined
         finish = ("exact finish" if self.polished else (self.info.kept or INTERIOR_POINT_KEPT)

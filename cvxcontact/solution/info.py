@@ -117,7 +117,7 @@ class SolveInfo:
         object.__setattr__(self, "iterations", int(self.iterations))
         object.__setattr__(self, "polished", bool(self.polished))
         object.__setattr__(self, "released", bool(self.released))
-        object.__setattr__(self, "handed_over", str(self.handed_over))
+        object.__setattr__(self, "handed_over", str(self.handed_over or ""))
         object.__setattr__(self, "fixed_point", tuple(float(d) for d in self.fixed_point))
         try:
             object.__setattr__(self, "declined", Declined.of(self.declined))

@@ -301,6 +301,42 @@ def thin_layer_route(n: int):
     return blocks, E, g, F, bonded
 
 
+def thin_layer_rounds(sides: dict, route, reps: int, pardiso=None):
+    """The interleaved A/B rounds of the long-interface scripts (benchmarks/longif_twod_ab.py, longif_pkg_ab.py):
+    in ONE process (so that a shared machine's load touches both alike), ``reps`` rounds, the order alternating
+    ("before", "after", "bonded"; then "after", "before", "bonded"), of the sparse route from its start with each
+    side's ``backends.sparse`` module (``sides``: {"before": module, "after": module}; ``SparseContact(...)``, then
+    ``coarse_start`` above the module's ``COARSE_ROWS`` rows, then ``solve``) and one bonded PARDISO solve.
+    ``route``: :func:`thin_layer_route`'s (blocks, E, g, F, bonded). ``pardiso``: None, or a callable returning the
+    process CPU s spent in PARDISO so far (a spy's counter), each side's run then split into PARDISO's and the rest.
+
+    Returns (t, rest, counts, answers): process CPU s per mode and round (``t``, modes "before", "after", "bonded";
+    ``rest``: a side's time less PARDISO's, empty lists without ``pardiso``), per side and round (numeric
+    factorisations, capacitance columns, systems) (``counts``) and the last round's (stacked displacements, row
+    forces, active set) (``answers``)."""
+    blocks, E, g, F, bonded = route
+    t = {"before": [], "after": [], "bonded": []}
+    rest = {"before": [], "after": []}
+    counts, answers = {}, {}
+    for r in range(reps):
+        for mode in (("before", "after", "bonded") if r % 2 == 0 else ("after", "before", "bonded")):
+            if mode == "bonded":
+                t[mode].append(bonded())
+                continue
+            sm = sides[mode]
+            inside = pardiso() if pardiso else 0.0
+            t0 = time.process_time()
+            sc = sm.SparseContact(blocks, E, factorization="auto")
+            st = sc.coarse_start(F, g) if len(g) >= sm.COARSE_ROWS else None
+            out = sc.solve(F, g, st)
+            t[mode].append(time.process_time() - t0)
+            if pardiso:
+                rest[mode].append(t[mode][-1] - (pardiso() - inside))
+            counts.setdefault(mode, []).append((sc.factorizations, sc.column_solves, out[-1]))
+            answers[mode] = (np.concatenate(out[0]), out[2], out[3])
+    return t, rest, counts, answers
+
+
 def coarse_rows_by_c4(C, free=None) -> np.ndarray:
     """``backends.coarse.coarse_rows`` as it was before its density dispatch (25d0d37f): the balls of COARSE_HOPS
     hops from the pattern of C^COARSE_HOPS formed by repeated products whatever the density, the greedy independent

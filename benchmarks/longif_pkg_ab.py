@@ -26,7 +26,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from harness import thin_layer_route
+from harness import thin_layer_rounds, thin_layer_route
 
 from cvxcontact.backends import factor as factor_after
 from cvxcontact.backends import sparse as after
@@ -58,26 +58,8 @@ def spied(inner):
 for fm in (factor_before, factor_after):
     fm.PardisoFactorization._call = fm.PardisoSymmetric._call = spied(fm.PardisoFactorization._call)
 
-blocks, E, g, F, bonded = thin_layer_route(n)
-sides = {"before": before, "after": after}
-t = {"before": [], "after": [], "bonded": []}
-rest = {"before": [], "after": []}
-counts, answers = {}, {}
-for r in range(reps):
-    for mode in (("before", "after", "bonded") if r % 2 == 0 else ("after", "before", "bonded")):
-        if mode == "bonded":
-            t[mode].append(bonded())
-            continue
-        sm = sides[mode]
-        pardiso["now"] = 0.0
-        t0 = time.process_time()
-        sc = sm.SparseContact(blocks, E, factorization="auto")
-        st = sc.coarse_start(F, g) if len(g) >= sm.COARSE_ROWS else None
-        out = sc.solve(F, g, st)
-        t[mode].append(time.process_time() - t0)
-        rest[mode].append(t[mode][-1] - pardiso["now"])
-        counts.setdefault(mode, []).append((sc.factorizations, sc.column_solves, out[-1]))
-        answers[mode] = (np.concatenate(out[0]), out[2], out[3])
+t, rest, counts, answers = thin_layer_rounds({"before": before, "after": after}, thin_layer_route(n), reps,
+                                            pardiso=lambda: pardiso["now"])
 b = statistics.median(t["bonded"])
 (ub, yb, ab), (ua, ya, aa) = answers["before"], answers["after"]
 print(n, {k: round(statistics.median(v), 3) for k, v in t.items()}, "rest (not PARDISO):",

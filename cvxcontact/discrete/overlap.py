@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 
+from ..contact.sides import held_sides
 from ..errors import OverlapWarning, user_stacklevel
 from .slip import friction_weights
 
@@ -78,34 +79,35 @@ def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
     if len(candidates) < 2:
         return []
     weights = friction_weights(lines, condition, conditions)
-    keys: dict = {}                                    # (scene body index, part) -> its index
-    whole: dict = {}                                   # its index -> one obstacle's weight at each body node
+    names: list = []                                   # the sides (scene body index, part) the candidates hold
     sides, node, pair, thr, wt, ref = [], [], [], [], [], []
-    for i in candidates:
-        itf, (r0, r1), (o0, o1) = pairs[i], row_at[i:i + 2], stack.offsets[i:i + 2]
-        trace = itf.traces[0]
-        key = keys.setdefault((stack.members[i][0], trace.part), len(keys))
-        nodes = np.asarray(trace.nodes)
-        if key not in whole:
-            part = _whole_part(itf, condition if not conditions or conditions[i] is None else conditions[i])
-            whole[key] = np.full(nodes.max() + 1, np.nan)
-            if part is not None:
-                whole[key][nodes] = part
-        at = (E[r0:r1, o0:o1] @ itf.interpolation(0)).tocoo()
-        keep = (at.data > _AT_NODE) & (g[r0 + at.row] > 0)
-        a, t = at.row[keep], at.col[keep]
-        sides.append(np.full(len(a), key, dtype=int))
-        node.append(nodes[t])
-        pair.append(np.full(len(a), i))
-        thr.append(g[r0 + a])
-        wt.append(weights[r0 + a])
-        ids, known = nodes[t], whole[key]                # another pair's trace may hold other nodes: nan
-        ref.append(np.where(ids < len(known), known[np.minimum(ids, len(known) - 1)], np.nan))
+    for key, (name, held) in enumerate(held_sides(stack, candidates).items()):
+        names.append(name)
+        first = held[0][0]
+        reach = np.asarray(pairs[first].traces[0].nodes)
+        part = _whole_part(pairs[first], condition if not conditions or conditions[first] is None else
+                           conditions[first])
+        known = np.full(reach.max() + 1, np.nan)       # one obstacle's weight at each body node (its first pair's)
+        if part is not None:
+            known[reach] = part
+        for i, _ in held:                              # an obstacle pair: one side
+            itf, (r0, r1), (o0, o1) = pairs[i], row_at[i:i + 2], stack.offsets[i:i + 2]
+            nodes = np.asarray(itf.traces[0].nodes)
+            at = (E[r0:r1, o0:o1] @ itf.interpolation(0)).tocoo()
+            keep = (at.data > _AT_NODE) & (g[r0 + at.row] > 0)
+            a, t = at.row[keep], at.col[keep]
+            sides.append(np.full(len(a), key, dtype=int))
+            node.append(nodes[t])
+            pair.append(np.full(len(a), i))
+            thr.append(g[r0 + a])
+            wt.append(weights[r0 + a])
+            ids = nodes[t]                             # another pair's trace may hold other nodes: nan
+            ref.append(np.where(ids < len(known), known[np.minimum(ids, len(known) - 1)], np.nan))
     side, node, pair, thr, wt, ref = (np.concatenate(v) for v in (sides, node, pair, thr, wt, ref))
     if len(node) == 0:
         return []
     # one entry per (side, node, pair): the rows of one pair at a node counted once
-    order = np.lexsort((pair, node, side))
+    order = np.lexsort((pair, node, side))             # stable: a pair's rows at a node in their order
     side, node, pair, thr, wt, ref = side[order], node[order], pair[order], thr[order], wt[order], ref[order]
     new = np.r_[True, (np.diff(side) != 0) | (np.diff(node) != 0) | (np.diff(pair) != 0)]
     side, node, pair, thr, wt, ref = side[new], node[new], pair[new], thr[new], wt[new], ref[new]
@@ -116,7 +118,7 @@ def overlapping_thresholds(lines, condition, conditions) -> list[dict]:
     one = np.where(np.isnan(ref[start]), heaviest, ref[start])       # one obstacle's weight at the node
     shared = (count > 1) & (summed > one * (1.0 + _EXCESS))
     on = np.repeat(shared, count)                                      # the entries at an overlapped node
-    names, found = list(keys), []
+    found = []
     for s in np.unique(side[start[shared]]):
         here = shared & (side[start] == s)
         found.append({"side": names[s], "pairs": sorted(set(pair[on & (side == s)].tolist())),

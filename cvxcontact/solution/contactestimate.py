@@ -18,6 +18,7 @@ import numpy as np
 
 from ..contact.interface import row_frames, row_tangents
 from ..contact.overlay import barycentric, locate
+from ..contact.sides import held_sides, pair_sides
 from ..fem.assembly import VOIGT
 from ..fem.p2 import shape_functions
 from ..fem.simplex import simplex_rule
@@ -223,21 +224,14 @@ def contact_terms(sol, data, cache, eta2, parts, signorini=True):
     complementarity and the penetration (and the friction terms), shared by the cells of the sides (module
     docstring)."""
     scene = sol.scene
-    bodies = list(scene.bodies)
-    held: dict = {}                                                     # per side (k, part): [(pair, its side)]
-    for i, pair in enumerate(scene.contacts):
-        for side, (body, part) in enumerate([(pair.body_a, pair.part_a)]
-                                            + ([] if pair.rigid else [(pair.other, pair.part_b)])):
-            held.setdefault((next(j for j, b in enumerate(bodies) if b is body), part), []).append((i, side))
+    held = held_sides(scene.stack)                                      # per side (k, part): [(pair, its side)]
     done, fields = set(), {}
-    for i, (pair, c) in enumerate(zip(scene.contacts, sol.contacts)):
-        sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
+    for i, c in enumerate(sol.contacts):
         if i not in fields:
             fields[i] = _pair_fields(sol, i)
         located = []
-        for body, part in sides:
-            k = next(j for j, b in enumerate(bodies) if b is body)
-            mesh = body.mesh
+        for k, part in pair_sides(scene.stack, i):
+            mesh = scene.bodies[k].mesh
             on = cache[k].side(part)
             cell, e, n = on.cell, on.f, on.normals                      # e oriented: domain on the left
             p = mesh.points
@@ -349,13 +343,11 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
     pairs = [_pair_fields3d(sol, i, cache, bodies) for i in range(len(sol.contacts))]
-    last, held = {}, {}                               # per side (k, part): its last pair, its [_PairSide]
-    for i, pr in enumerate(pairs):
-        for ps in pr["sides"]:
-            last[ps.key] = i
-            held.setdefault(ps.key, []).append(ps)
+    holders = held_sides(sol.scene.stack)             # per side (k, part): [(pair, its side)]
+    held = {key: [pairs[i]["sides"][slot] for i, slot in on] for key, on in holders.items()}   # its [_PairSide]
+    last = {key: on[-1][0] for key, on in holders.items()}                                    # its last pair
     acc = {}                                          # per side: int_F |R_F|^2 of its faces
-    sided = _gap_sides(sol, pairs, held, signorini)   # sides whose complementarity is read once (_side_gap_terms)
+    sided = _gap_sides(sol, pairs, holders, signorini)   # sides whose complementarity is read once (_side_gap_terms)
     for i, (c, pr) in enumerate(zip(sol.contacts, pairs)):
         itf, fr = pr["itf"], pr["fr"]
         elements, corners, hosts = pr["elements"], pr["corners"], pr["hosts"]
@@ -426,16 +418,14 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         _share(owners, terms, data, eta2, parts)
 
 
-def _gap_sides(sol, pairs, held, signorini) -> dict:
-    """{side key: [pair indices]}: the sides (body, part) held by several pairs, every one a Signorini pair against
-    an obstacle, whose complementarity and penetration are read once on the side (:func:`_side_gap_terms`)."""
+def _gap_sides(sol, pairs, holders, signorini) -> dict:
+    """{side key: [pair indices]}: the sides (body, part) held by several pairs (``holders``: each side's
+    [(pair, its side)], :func:`~cvxcontact.contact.sides.held_sides`), every one a Signorini pair against an
+    obstacle, whose complementarity and penetration are read once on the side (:func:`_side_gap_terms`)."""
     if not signorini:
         return {}
-    out: dict = {}
-    for i, pr in enumerate(pairs):
-        out.setdefault(pr["sides"][0].key, []).append(i)
-    return {key: group for key, group in out.items() if len(group) > 1 and len(held[key]) == len(group)
-            and all(pairs[i]["itf"].rigid and not getattr(sol.contacts[i].law, "compliant", False) for i in group)}
+    return {key: [i for i, _ in on] for key, on in holders.items() if len(on) > 1
+            and all(pairs[i]["itf"].rigid and not getattr(sol.contacts[i].law, "compliant", False) for i, _ in on)}
 
 
 def _side_gap_terms(group, cache, N, wq):
@@ -491,12 +481,11 @@ def _pair_fields3d(sol, i, cache, bodies) -> dict:
         nodal.update(t=slip.nodal_vectors(fr.t, frames), s=slip.nodal_vectors(fr.s, frames),
                      r=slip.nodal_vectors(fr.r, frames), g=np.append(np.asarray(fr.g, dtype=float), 0.0))
     sides = []
-    for side, trace in enumerate(itf.traces):
+    for side, (trace, key) in enumerate(zip(itf.traces, pair_sides(sol.scene.stack, i))):
         linear = getattr(trace, "linear", trace)                      # P2: its P1 trace (the same faces)
-        k = next(j for j, b in enumerate(bodies) if b is linear.body)
         sign = 1 - 2 * side                                            # the first body's t_h, the other's -t_h
         signed = {name: sign * v if name in _SIGNED else v for name, v in nodal.items()}
-        sides.append(_PairSide((k, linear.part), linear, sign, elements, corners, signed))
+        sides.append(_PairSide(key, linear, sign, elements, corners, signed))
     return {"itf": itf, "elements": elements, "corners": corners, "hosts": hosts, "open": open_, "lam": lam,
             "fr": fr, "sides": sides}
 

@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contact.riesz import TraceRiesz
+from ..contact.sides import pair_sides, side_groups
 
 __all__ = ["side_multiplier"]
 
@@ -61,7 +62,7 @@ def side_multiplier(stack, r, alone=(), active=None) -> np.ndarray:
     closed = None if active is None else [np.asarray(active[at[i]:at[i + 1]], dtype=bool) for i in range(len(pairs))]
     alone = set(alone) | ({i for i, c in enumerate(closed) if not c.any()} if closed else set())
     lam: list = [None] * len(pairs)
-    for group in _groups(stack, alone):
+    for group in side_groups(stack, alone):
         read = None
         if len(group) > 1:
             read = _obstacles([pairs[i] for i in group], [parts[i] for i in group],
@@ -71,32 +72,6 @@ def side_multiplier(stack, r, alone=(), active=None) -> np.ndarray:
         for i, values in zip(group, read or [pairs[i].multiplier(parts[i]) for i in group]):
             lam[i] = values
     return np.concatenate(lam) if lam else np.zeros(0)
-
-
-def _sides(stack, i) -> list[tuple]:
-    """The sides (scene body index, part) pair ``i`` of ``stack`` holds."""
-    return [(k, trace.part) for k, trace in zip(stack.members[i], stack.interfaces[i].traces)]
-
-
-def _groups(stack, alone) -> list[list[int]]:
-    """The pairs of ``stack`` grouped by the sides they share (connected: a pair joins every group one of whose
-    pairs holds one of its sides; the pairs ``alone`` each a group of its own), each group in pair order."""
-    owner: dict = {}
-    parent = list(range(len(stack.interfaces)))
-
-    def root(i):
-        while parent[i] != i:
-            i = parent[i]
-        return i
-
-    for i in range(len(parent)):
-        for side in [] if i in alone else _sides(stack, i):
-            j = owner.setdefault(side, i)
-            parent[root(i)] = root(j)
-    groups: dict = {}
-    for i in range(len(parent)):
-        groups.setdefault(root(i), []).append(i)
-    return list(groups.values())
 
 
 def _obstacles(pairs, forces, closed=None):
@@ -144,7 +119,7 @@ def _bodies(stack, group, forces):
     blocks: dict = {}                      # per side: [(row block, its functions)], and its trace's nodes
     nodes: dict = {}
     for b, (i, (interp, _)) in enumerate(zip(group, riesz)):
-        for side, trace, P in zip(_sides(stack, i), pairs[b].traces, interp):
+        for side, trace, P in zip(pair_sides(stack, i), pairs[b].traces, interp):
             if not np.array_equal(nodes.setdefault(side, np.asarray(trace.nodes)), trace.nodes):
                 return None
             blocks.setdefault(side, []).append((b, P))

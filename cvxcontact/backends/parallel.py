@@ -27,8 +27,13 @@ def _parallel(G, g):
     G.sort_indices()
     norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
     gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
-    groups: dict[bytes, list[int]] = {}
-    for a in np.flatnonzero(norms > 0):               # rows on the same unknowns (the only candidates)
+    nnz = np.diff(G.indptr)
+    at = np.repeat(np.arange(G.shape[0]), nnz)
+    cols = G.indices.astype(float)                    # a row's pattern summed (nnz, sum j, sum j^2): rows whose
+    key = np.column_stack([nnz, np.bincount(at, cols, G.shape[0]), np.bincount(at, cols ** 2, G.shape[0])])
+    _, which, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)   # sums no other row has
+    groups: dict[bytes, list[int]] = {}                                                 # have no pattern in common
+    for a in np.flatnonzero((norms > 0) & (count[which.ravel()] > 1)):   # rows on the same unknowns (the candidates)
         groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
     out = []
     for rows in (r for r in groups.values() if len(r) > 1):

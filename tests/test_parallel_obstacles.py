@@ -4,8 +4,9 @@ strip of it (coincident over part of the part) and a floor with a strip raised 3
 (equal rows, different gaps: the floor's row there is implied), under the block pushed by DELTA (tests/
 reach_scenes.py), 2D P1/P2, 3D P1/P2 tetrahedra and Q1 hexahedra, over method "full" (the reference backend),
 "condensed", "sparse", "amg" and the default call. Before, method="full" read ok=False on every scene with
-coincident rows but the 2D P1 strip (its exact finish closed both equal rows of a node: (26) singular; the
-interior point kept, 1e-4 of |u| away on 3D P2).
+coincident rows but 2D P2 coincident floors and the 2D P1 floor and strip (its exact finish closed both equal rows
+of a node: (26) singular; the interior point kept, its complementarity 1.9e-5 to 1.1e-4, 1e-4 of |u| away on 3D
+P2).
 
 Checked against an independent reference: the same block on ONE obstacle of the tightest gaps (the floor, or
 :func:`reach_scenes.raised`), a problem of the same feasible set without repeated rows: u, the pairs' forces summed

@@ -140,3 +140,5 @@ def test_repeated_rows_by_hand():
     assert closed_once(first, np.array([0, 1, 1, 1, 1, 0], dtype=bool)).tolist() == [False, True, True, True,
                                                                                      False, False]
     assert repeated_rows(G, g + np.array([0, 0, 0, 0, 1e-9, 0])).tolist() == [0, 1, 0, 3, 4, 5]   # 1e-9: not equal
+    # an infinite gap repeats nothing, and sets no scale for the others' (1 and 1 + 1e-6: not equal)
+    assert repeated_rows(sp.csr_matrix(np.ones((3, 1))), np.array([np.inf, 1.0, 1.0 + 1e-6])).tolist() == [0, 1, 2]

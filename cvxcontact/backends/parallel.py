@@ -64,14 +64,15 @@ def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
 
 def repeated_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     """Per contact row, the first row (lowest index) it repeats: G_a = c G_b, c > 0, and g_a / |G_a| = g_b / |G_b|
-    (both to ``tol``, :data:`PARALLEL_TOL`; the gaps relative to the largest normalised gap), or the row itself
+    (both to ``tol``, :data:`PARALLEL_TOL`; the gaps relative to the largest finite normalised gap), or the row itself
     (int per row). Rows of one class are one equation: closing them together is closing one, the force on them
     is determined only in its sum (coincident obstacles: two planes of one position and normal, the same gaps).
     Unlike :func:`looser_rows` this reads no order of gaps, so it holds for any law closing the rows as they are
     (the rows of a force-controlled obstacle included, their translation columns part of G)."""
     groups, gap = _parallel(G, g)
     first = np.arange(G.shape[0])
-    scale = tol * max(float(np.abs(gap).max(initial=0.0)), np.finfo(float).tiny)
+    finite = np.abs(gap[np.isfinite(gap)])                 # (an infinite gap repeats nothing: inf - inf is nan)
+    scale = tol * max(float(finite.max(initial=0.0)), np.finfo(float).tiny)
     for rows, U in groups:
         for i in range(len(rows)):
             if first[rows[i]] != rows[i]:

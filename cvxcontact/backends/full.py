@@ -11,6 +11,8 @@ and :func:`mixed_kkt` solves its mixed system (26) on a given active set (the ex
 
 from __future__ import annotations
 
+import functools
+
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
@@ -310,12 +312,12 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
         G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
     held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
-    first = []                           # a row repeated (coincident obstacles at a node): closed once (found at
-                                         # the first solve: many callers read only kkt.matrix / kkt.rows)
+    # a row repeated (coincident obstacles at a node) is closed once; its classes found at the first solve (many
+    # callers read only kkt.matrix / kkt.rows)
+    repeats = functools.cache(lambda: repeated_rows(G_all, g))
+
     def kkt(active):
-        if not first:
-            first.append(repeated_rows(G_all, g))
-        active = closed_once(first[0], active)
+        active = closed_once(repeats(), active)
         G, b = G_all[active], np.concatenate([rhs, g[active]])
         n, start = A.shape[0], A.shape[0] - sum(widths)
         for (R, F), w, h in zip(translations or (), widths, held):

@@ -85,6 +85,17 @@ def step(at, dim, drop=3e-6):
                     sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
 
 
+def raised(lo, hi, dim, up=3e-6):
+    """One obstacle: the plane (2D: line) y = 0 (3D: z) with the strip lo <= x < hi of it raised by ``up`` (m), its
+    distance along the ray -y (-z): the upper envelope of a whole floor (:func:`line`, :func:`strip`) and
+    :func:`lowered` (``drop=-up``) under that strip, as a single pair (the tightest gap at each node)."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return x[:, dim - 1] - np.where((x[:, 0] >= lo) & (x[:, 0] < hi), up, 0.0)
+    return cc.Rigid("raised", distance, f"a floor raised by {up} under {lo} <= x < {hi}",
+                    sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
+
+
 def box_on_boxes(cuts=(0.4,), n=3):
     """The n x n x 1 box [0, 1]^2 x [0, H] of steel pushed down by DELTA onto boxes [c_i, c_i+1] x [0, 1] x [-H, 0]
     clamped at their bottom (0 = c_0 < cuts < 1), every side on rollers, one pair per lower box (the upper box

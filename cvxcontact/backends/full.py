@@ -11,6 +11,8 @@ and :func:`mixed_kkt` solves its mixed system (26) on a given active set (the ex
 
 from __future__ import annotations
 
+import functools
+
 import cvxpy as cp
 import numpy as np
 import scipy.sparse as sp
@@ -27,6 +29,7 @@ from .factor import (
     structurally_nonsingular,
 )
 from .factor import lu as dense_or_sparse_lu
+from .parallel import closed_once, repeated_rows
 
 __all__ = [
     "ContactModel",
@@ -288,6 +291,11 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
     interval the open rows allow; with ``hold`` (one array per obstacle, e.g. the interior point's
     translations) they are held there if the force has no component along them (else the set is singular:
     None); without, such a set is singular (the cones' finish then turns to the tangency points, §18).
+
+    Rows that repeat each other (:func:`~cvxcontact.backends.parallel.repeated_rows`: coincident obstacles, the
+    same row of E [u_nu] with the same gap) are one equation: of those ``active`` closes, the first is closed and
+    carries their force, the others get force 0 and its slack (:func:`~cvxcontact.backends.parallel.closed_once`;
+    closed together, (26) would be singular: the split of the force between them is not determined, its sum is).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
@@ -304,8 +312,12 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
         G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
     held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
+    # a row repeated (coincident obstacles at a node) is closed once; its classes found at the first solve (many
+    # callers read only kkt.matrix / kkt.rows)
+    repeats = functools.cache(lambda: repeated_rows(G_all, g))
 
     def kkt(active):
+        active = closed_once(repeats(), active)
         G, b = G_all[active], np.concatenate([rhs, g[active]])
         n, start = A.shape[0], A.shape[0] - sum(widths)
         for (R, F), w, h in zip(translations or (), widths, held):

@@ -8,7 +8,6 @@ import logging
 import time
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import SolverError
 from .condensed import InterfaceModel, quasi_definite_rhs
@@ -18,6 +17,7 @@ from .finish import (Declined, Stop, force_displacements, independent_active_set
 from .full import mixed_kkt
 from .interface import condensation
 from .mixed import mixed_system, stacked, unstacked
+from .parallel import looser_rows
 from .program import release, timed_program
 from .result import Finish, RawResult, Route
 
@@ -377,38 +377,3 @@ def cheap_start(problem, free=None):
     free = ~problem.held_rows if free is None else free
     start = free & (np.asarray(problem.g) <= 0.0)
     return start if 0 < start.sum() < free.sum() else None
-
-
-PARALLEL_TOL = 1e-12
-"""Two contact rows are parallel (:func:`looser_rows`) where their unit rows (each row of G over its 2-norm) agree to
-this in every entry: the rows of two obstacles at one node with the same normal are equal to the last bit."""
-
-
-def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
-    """The contact rows another row implies (bool per row): a row a with G_a = c G_b, c > 0 (to ``tol``,
-    :data:`PARALLEL_TOL`), of a normalised gap g_a / |G_a| >= g_b / |G_b| (the tightest of each parallel group is
-    kept; of equal gaps, the first). G_b x <= g_b gives G_a x <= g_a: the row is never needed, its force is 0 at an
-    answer, and closed beside the kept one it makes K(A) of the sparse route singular (two equal rows, gaps
-    different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
-    over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
-    tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched.
-    For Signorini rows of fixed gaps only, as the sparse route (its caller) takes: not beside a compliance law (a
-    looser row penetrated carries a force too), friction (a row's force bounds its friction) or a force-controlled
-    obstacle (gaps g - R tau: their order may change with tau), which the "sparse" backend does not accept
-    (:mod:`cvxcontact.backends`)."""
-    G = sp.csr_matrix(G, copy=True)
-    G.eliminate_zeros()
-    G.sort_indices()
-    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
-    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
-    groups: dict[bytes, list[int]] = {}
-    for a in np.flatnonzero(norms > 0):               # rows on the same unknowns (the only candidates)
-        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
-    looser = np.zeros(G.shape[0], dtype=bool)
-    for rows in (r for r in groups.values() if len(r) > 1):
-        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]      # tightest first, ties by index
-        U = np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])
-        for i in range(len(rows)):
-            if not looser[rows[i]]:
-                looser[rows[i + 1:]] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol
-    return looser

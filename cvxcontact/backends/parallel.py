@@ -1,0 +1,97 @@
+"""Parallel contact rows: the rows of several obstacles at one node with the same normal (coincident obstacles, a
+floor and a strip raised above part of it) are one row of G repeated, each with its own gap (docs/architecture.md,
+"The sparse route"). Closed together they make a mixed system (26) singular: two equal rows with equal gaps leave
+the split of the node's force between them free, two of different gaps cannot both close. Each route reads them
+here: the sparse route leaves the looser rows open (:func:`looser_rows`), the exact solve of (26) on an active set
+closes each repeated row once (:func:`repeated_rows`, :func:`~cvxcontact.backends.full.mixed_kkt`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["PARALLEL_TOL", "closed_once", "looser_rows", "repeated_rows"]
+
+PARALLEL_TOL = 1e-12
+"""Two contact rows are parallel (:func:`looser_rows`) where their unit rows (each row of G over its 2-norm) agree to
+this in every entry: the rows of two obstacles at one node with the same normal are equal to the last bit. Two
+parallel rows repeat each other (:func:`repeated_rows`) where their normalised gaps also agree to this, relative to
+the largest |g_a| / |G_a|."""
+
+
+def _parallel(G, g):
+    """(order, U, gap): per set of rows of one sparsity pattern (the only candidates for parallel rows), its rows
+    sorted by normalised gap (ties by index) and their unit rows; ``gap`` the normalised gaps g_a / |G_a|."""
+    G = sp.csr_matrix(G, copy=True)
+    G.eliminate_zeros()
+    G.sort_indices()
+    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
+    nnz = np.diff(G.indptr)
+    at = np.repeat(np.arange(G.shape[0]), nnz)
+    cols = G.indices.astype(float)                    # a row's pattern summed (nnz, sum j, sum j^2): rows whose
+    key = np.column_stack([nnz, np.bincount(at, cols, G.shape[0]), np.bincount(at, cols ** 2, G.shape[0])])
+    _, which, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)   # sums no other row has
+    groups: dict[bytes, list[int]] = {}                                                 # have no pattern in common
+    for a in np.flatnonzero((norms > 0) & (count[which.ravel()] > 1)):   # rows on the same unknowns (the candidates)
+        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
+    out = []
+    for rows in (r for r in groups.values() if len(r) > 1):
+        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]      # tightest first, ties by index
+        out.append((rows, np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])))
+    return out, gap
+
+
+def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
+    """The contact rows another row implies (bool per row): a row a with G_a = c G_b, c > 0 (to ``tol``,
+    :data:`PARALLEL_TOL`), of a normalised gap g_a / |G_a| >= g_b / |G_b| (the tightest of each parallel group is
+    kept; of equal gaps, the first). G_b x <= g_b gives G_a x <= g_a: the row is never needed, its force is 0 at an
+    answer, and closed beside the kept one it makes K(A) of the sparse route singular (two equal rows, gaps
+    different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
+    over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
+    tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched.
+    For Signorini rows of fixed gaps only, as the sparse route (its caller) takes: not beside a compliance law (a
+    looser row penetrated carries a force too), friction (a row's force bounds its friction) or a force-controlled
+    obstacle (gaps g - R tau: their order may change with tau), which the "sparse" backend does not accept
+    (:mod:`cvxcontact.backends`)."""
+    looser = np.zeros(G.shape[0], dtype=bool)
+    for rows, U in _parallel(G, g)[0]:
+        for i in range(len(rows)):
+            if not looser[rows[i]]:
+                looser[rows[i + 1:]] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol
+    return looser
+
+
+def repeated_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
+    """Per contact row, the first row (lowest index) it repeats: G_a = c G_b, c > 0, and g_a / |G_a| = g_b / |G_b|
+    (both to ``tol``, :data:`PARALLEL_TOL`; the gaps relative to the largest finite normalised gap), or the row itself
+    (int per row). Rows of one class are one equation: closing them together is closing one, the force on them
+    is determined only in its sum (coincident obstacles: two planes of one position and normal, the same gaps).
+    Unlike :func:`looser_rows` this reads no order of gaps, so it holds for any law closing the rows as they are
+    (the rows of a force-controlled obstacle included, their translation columns part of G)."""
+    groups, gap = _parallel(G, g)
+    first = np.arange(G.shape[0])
+    finite = np.abs(gap[np.isfinite(gap)])                 # (an infinite gap repeats nothing: inf - inf is nan)
+    scale = tol * max(float(finite.max(initial=0.0)), np.finfo(float).tiny)
+    for rows, U in groups:
+        for i in range(len(rows)):
+            if first[rows[i]] != rows[i]:
+                continue
+            same = (np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol) & (np.abs(gap[rows[i + 1:]] - gap[rows[i]]) <= scale)
+            same &= first[rows[i + 1:]] == rows[i + 1:]
+            cls = np.concatenate([[rows[i]], rows[i + 1:][same]])
+            first[cls] = cls.min()
+    return first
+
+
+def closed_once(first: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """The rows of ``active`` (bool per row) closed in a solve: of each class of repeated rows (``first``, from
+    :func:`repeated_rows`) the first active one; the others are the same equation (their force 0, their slack
+    that of the row kept)."""
+    keep = np.asarray(active, dtype=bool).copy()
+    at = np.flatnonzero(keep & (np.bincount(first, minlength=len(first))[first] > 1))   # active, in a class
+    if len(at):
+        _, kept = np.unique(first[at], return_index=True)      # at ascending: each class's first active row
+        keep[at] = False
+        keep[at[kept]] = True
+    return keep

@@ -70,6 +70,7 @@ from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
 from .krylov import GMRES_RESTART, gmres, v_cycle
 from .krylov import seeded as _seeded
+from .signorini import ParallelRows
 from .sparse import row_weights
 
 log = logging.getLogger(__name__)
@@ -134,12 +135,29 @@ def available() -> bool:
     return importlib.util.find_spec("pyamg") is not None
 
 
-def own_dofs(G):
+def own_dofs(G, parallel=None):
     """Each row's own dof: (dof, coefficient) arrays over the rows of ``G`` (m x n), the dof of largest
     |coefficient| among those no other row touches, or None if a row with entries has none, or if another
     entry of a row is some row's own dof (then eliminating one row would change another's). Rows without
-    entries get dof -1."""
+    entries get dof -1. ``parallel``: the parallel groups of ``G``'s rows
+    (:class:`~cvxcontact.backends.signorini.ParallelRows`, the rows of several obstacles at one node): the rows of
+    a group whose rows are all parallel (``exact``) share the own dof of its first row, each with its own
+    coefficient there (one of them at most is ever closed: the others are implied, :meth:`KrylovContact.solve`)."""
     G = sp.csr_matrix(G)
+    if parallel is not None and len(parallel.rows):
+        first = np.concatenate([[True], np.diff(parallel.cluster) != 0])
+        lead = parallel.rows[np.maximum.accumulate(np.where(first, np.arange(len(first)), 0))]
+        follow = ~first & parallel.exact[parallel.cluster]
+        kept = np.ones(G.shape[0], dtype=bool)
+        kept[parallel.rows[follow]] = False
+        out = own_dofs(G[kept])
+        if out is None:
+            return None
+        dof, coef = np.full(G.shape[0], -1), np.zeros(G.shape[0])
+        dof[kept], coef[kept] = out
+        rows, dof[parallel.rows[follow]] = parallel.rows[follow], dof[lead[follow]]
+        coef[rows] = np.asarray(G[rows, dof[rows]]).ravel()
+        return dof, coef
     m = G.shape[0]
     rows = np.repeat(np.arange(m), np.diff(G.indptr))
     used = np.bincount(G.indices, minlength=G.shape[1])
@@ -341,7 +359,8 @@ class KrylovContact:
         self.G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((m, npf))])
                             for b, (_, npf) in zip(blocks, self.sizes)]).tocsr()
         self.G.sum_duplicates()
-        own = own_dofs(self.G)
+        self.parallel = ParallelRows(self.G)           # the rows of several obstacles at one node: one dof each
+        own = own_dofs(self.G, self.parallel)
         if own is None:
             raise SolverError("method 'amg': a contact row has no dof of its own (the overlay rows of 'gamma3' "
                               "share their dofs); use method='sparse'")
@@ -558,7 +577,7 @@ class KrylovContact:
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
         self.declined = None
         self._stacked()                          # dropped after the last solve: the same blocks stacked again
-        movable = self.dof >= 0
+        movable = (self.dof >= 0) & ~self.parallel.looser(g)    # an implied row (looser_rows) stays open
         last = [np.asarray(active, dtype=bool) & movable]
         count = [0]
 

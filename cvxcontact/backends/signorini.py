@@ -21,7 +21,8 @@ from .mixed import mixed_system, stacked, unstacked
 from .program import release, timed_program
 from .result import Finish, RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows", "looser_rows"]
+__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows", "looser_rows",
+           "ParallelRows"]
 
 log = logging.getLogger(__name__)
 
@@ -245,7 +246,10 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
-    free &= ~looser_rows(sc.G, problem.g)    # so does a row a tighter parallel row implies (K(A) singular too)
+    if cache.own.get("parallel rows") is None:        # the parallel groups of the rows: once per geometry
+        cache.own["parallel rows"] = ParallelRows(sc.G)
+    free &= ~cache.own["parallel rows"].looser(problem.g)   # so does a row a tighter parallel row implies (K(A)
+    # singular too: :func:`looser_rows`)
     if not settings.warm_start:
         first = cheap_start(problem, free)
         fresh_analysis(sc, free if first is None else first)
@@ -392,23 +396,99 @@ def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
     over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
     tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched.
-    For Signorini rows of fixed gaps only, as the sparse route (its caller) takes: not beside a compliance law (a
-    looser row penetrated carries a force too), friction (a row's force bounds its friction) or a force-controlled
-    obstacle (gaps g - R tau: their order may change with tau), which the "sparse" backend does not accept
-    (:mod:`cvxcontact.backends`)."""
-    G = sp.csr_matrix(G, copy=True)
-    G.eliminate_zeros()
-    G.sort_indices()
-    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
-    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
-    groups: dict[bytes, list[int]] = {}
-    for a in np.flatnonzero(norms > 0):               # rows on the same unknowns (the only candidates)
-        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
-    looser = np.zeros(G.shape[0], dtype=bool)
-    for rows in (r for r in groups.values() if len(r) > 1):
-        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]      # tightest first, ties by index
-        U = np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])
-        for i in range(len(rows)):
-            if not looser[rows[i]]:
-                looser[rows[i + 1:]] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol
-    return looser
+    For Signorini rows of fixed gaps only, as the sparse and AMG routes (its callers) take: not beside a compliance
+    law (a looser row penetrated carries a force too), friction (a row's force bounds its friction) or a
+    force-controlled obstacle (gaps g - R tau: their order may change with tau), which the "sparse" and "amg"
+    backends do not accept (:mod:`cvxcontact.backends`). The groups once, the order per gaps:
+    :class:`ParallelRows` (``ParallelRows(G, tol).looser(g)``, this function)."""
+    return ParallelRows(G, tol).looser(g)
+
+
+class ParallelRows:
+    """The parallel groups of the rows of ``G`` (m x n), found once per geometry (the rows do not change with the
+    loads, the gaps do): :meth:`looser` orders each group by the gaps of a load case (:func:`looser_rows`).
+
+    Vectorised: the rows with entries are grouped by their pattern (per row length, a lexicographic sort of their
+    columns), then each group is split coordinate by coordinate where the sorted unit rows (G_a / |G_a|) differ
+    by more than ``tol``: rows in different clusters are never within ``tol`` of each other, so the greedy order of
+    :func:`looser_rows` (tightest first; a row not yet implied implies every later one within ``tol``) acts on
+    each cluster alone. A cluster of diameter <= ``tol`` in every coordinate (:attr:`exact`: the rows of several
+    obstacles at one node, equal to the last bit) keeps its tightest row and drops the others; any other cluster
+    (rows chained within ``tol`` but not all within it of each other) is ordered row by row as the greedy
+    definition reads. The diameter and the splits are exact in floating point (fl(a - b) is monotone in a and b),
+    so :meth:`looser` is the definition's answer on every input.
+
+    Attributes
+    ----------
+    rows : (k,) int ndarray, the rows in clusters of two or more, by cluster then row index
+    cluster : (k,) int ndarray, each one's cluster (0, 1, ...; sorted)
+    exact : (c,) bool ndarray, per cluster, whether its rows are all within ``tol`` of each other
+    """
+
+    def __init__(self, G, tol: float = PARALLEL_TOL):
+        G = sp.csr_matrix(G, copy=True)
+        G.eliminate_zeros()
+        G.sort_indices()
+        self.m = G.shape[0]
+        norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+        self._scale = np.where(norms > 0, norms, 1.0)                   # the gaps' normalisation
+        lengths = np.diff(G.indptr)
+        rows, cluster, units, count = [], [], {}, 0
+        for L in np.unique(lengths[norms > 0]):       # rows on the same unknowns (the only candidates), per length
+            R = np.flatnonzero((lengths == L) & (norms > 0))
+            at = G.indptr[R][:, None] + np.arange(L)
+            P, U = G.indices[at], G.data[at] / norms[R][:, None]
+            order = np.lexsort(P.T[::-1])                          # by pattern, then row index (a stable sort)
+            R, P, U = R[order], P[order], U[order]
+            new = np.concatenate([[True], (P[1:] != P[:-1]).any(axis=1)])
+            R, U, cid = _shared(R, U, np.cumsum(new))
+            for c in range(L):                        # split where the sorted c-th coordinate jumps by > tol
+                if len(R) == 0:
+                    break
+                order = np.lexsort((R, U[:, c], cid))
+                R, U, cid = R[order], U[order], cid[order]
+                jump = np.diff(U[:, c]) > tol
+                R, U, cid = _shared(R, U, np.cumsum(np.concatenate([[True], (np.diff(cid) != 0) | jump])))
+            if len(R) == 0:
+                continue
+            order = np.lexsort((R, cid))                             # by cluster, then row index
+            R, U, cid = R[order], U[order], cid[order]
+            first = np.flatnonzero(np.concatenate([[True], np.diff(cid) != 0]))
+            diameter = (np.maximum.reduceat(U, first, axis=0) - np.minimum.reduceat(U, first, axis=0)).max(axis=1)
+            for k in np.flatnonzero(~(diameter <= tol)):             # (NaN: not within tol, as the definition)
+                units[count + k] = U[first[k]:first[k + 1] if k + 1 < len(first) else len(R)]
+            rows.append(R)
+            cluster.append(count + np.repeat(np.arange(len(first)), np.diff(np.append(first, len(R)))))
+            count += len(first)
+        self.rows = np.concatenate(rows) if rows else np.zeros(0, dtype=int)
+        self.cluster = np.concatenate(cluster) if cluster else np.zeros(0, dtype=int)
+        self.exact = np.ones(count, dtype=bool)
+        self.exact[list(units)] = False
+        self._units, self._tol = units, tol
+
+    def looser(self, g) -> np.ndarray:
+        """(m,) bool: the rows a tighter parallel row implies under gaps ``g`` (:func:`looser_rows`)."""
+        looser = np.zeros(self.m, dtype=bool)
+        if len(self.rows) == 0:
+            return looser
+        gap = (np.asarray(g, dtype=float) / self._scale)[self.rows]
+        order = np.lexsort((self.rows, gap, self.cluster))         # tightest first, ties by index
+        rows, cluster = self.rows[order], self.cluster[order]
+        lead = np.concatenate([[True], np.diff(cluster) != 0])
+        looser[rows[~lead & self.exact[cluster]]] = True
+        for k, U in self._units.items():                          # chained clusters: the greedy definition
+            mine = np.flatnonzero(self.cluster == k)               # (rows by index, U in the same order)
+            seq = mine[np.argsort(gap[mine], kind="stable")]
+            U, rows, out = U[seq - mine[0]], self.rows[seq], np.zeros(len(seq), dtype=bool)
+            for i in range(len(seq)):
+                if not out[i]:
+                    out[i + 1:] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= self._tol
+            looser[rows] = out
+        return looser
+
+
+def _shared(R, U, cid):
+    """The rows of ``R`` (their unit rows ``U``, cluster ids ``cid``, sorted) whose cluster has two or more."""
+    size = np.bincount(cid)
+    keep = size[cid] > 1
+    return R[keep], U[keep], cid[keep]

@@ -9,7 +9,12 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
 
 * every contact row a has its own dof s(a): a dof of largest |coefficient| in that row that no other row
   touches (the nodal conditions "sigma1"/"sigma2" and rigid obstacles; not "gamma3", whose overlay rows share
-  their dofs: the route then hands the problem to the sparse route). A closed row is eliminated exactly,
+  their dofs: the route then hands the problem to the sparse route). The rows of several obstacles at one node
+  with one normal (a floor and a strip raised above it: G_a = c G_b, c > 0) share their group's dof
+  (:func:`own_dofs` with the groups of :class:`~cvxcontact.backends.signorini.ParallelRows`): all but the tightest
+  of them stay open (:func:`~cvxcontact.backends.signorini.looser_rows`, as on the sparse route: implied, their
+  force 0 at an answer; Signorini rows of fixed gaps only, all this route takes), so a closed row still has its
+  dof alone. A closed row is eliminated exactly,
   x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
   is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes),
   applied unformed (:class:`Reduced`: T_A is the identity but on the eliminated dofs, so a product costs one
@@ -570,7 +575,9 @@ class KrylovContact:
         return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):
-        """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
+        """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``, the rows a
+        tighter parallel row implies under ``g`` kept open (:func:`~cvxcontact.backends.signorini.looser_rows`: they
+        share their dof with it, :func:`own_dofs`);
         ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
         if the steps cycle (on loose solves, they are retried from the last set on tighter ones, :data:`RETRIES`)
         or a Krylov solve misses its tolerance."""
@@ -626,7 +633,8 @@ class KrylovContact:
 def signorini(problem, cache, settings, timings):
     """The route of method "amg" for nodal Signorini rows: active-set steps with AMG-preconditioned Krylov
     solves, from the previous active set (re-solve), the rows the obstacles already close (3D) or the bonded
-    system; hands the problem to the sparse route where it cannot take it (gamma3) or a solve misses RTOL."""
+    system, a row a tighter parallel row implies left open (:meth:`KrylovContact.solve`); hands the problem to the
+    sparse route where it cannot take it (gamma3) or a solve misses RTOL."""
     from .result import RawResult, Route
     from .signorini import cheap_start, sparse
 

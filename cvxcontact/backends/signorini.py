@@ -233,7 +233,8 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     rows' answer whatever the size (measured: thin_layer(200) on a flat gap, and a thin clamped plate on a
     block with a crowned gap at 1,681 rows, where the steps from the bonded start cycle). Exact, no interior
     point (``polish`` does not apply). ``iterations`` counts the systems solved. A row a tighter parallel row implies
-    stays open (:func:`looser_rows`: two obstacles at one node); where the steps still do not settle, the condensed
+    stays open (:func:`looser_rows`: two obstacles at one node; the groups, :class:`ParallelRows`, kept in
+    ``cache.own["parallel rows"]`` for the geometry); where the steps still do not settle, the condensed
     route answers (:func:`_hand_over`, route ``SPARSE_HANDED_OVER``)."""
     from .sparse import COARSE_ROWS, SparseContact
 

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SolverError
+from ..errors import SolverError, locked
 from .condensed import InterfaceModel, quasi_definite_rhs
 from ..contact.laws import RowLaws, Signorini
 from .finish import (Declined, Stop, force_displacements, independent_active_set, independent_interface, ipm_active,
@@ -461,10 +461,11 @@ class ParallelRows:
             rows.append(R)
             cluster.append(count + np.repeat(np.arange(len(first)), np.diff(np.append(first, len(R)))))
             count += len(first)
-        self.rows = np.concatenate(rows) if rows else np.zeros(0, dtype=int)
-        self.cluster = np.concatenate(cluster) if cluster else np.zeros(0, dtype=int)
-        self.exact = np.ones(count, dtype=bool)
-        self.exact[list(units)] = False
+        exact = np.ones(count, dtype=bool)
+        exact[list(units)] = False
+        self.rows = locked(np.concatenate(rows) if rows else np.zeros(0, dtype=int))      # (kept for the geometry:
+        self.cluster = locked(np.concatenate(cluster) if cluster else np.zeros(0, dtype=int))       # read-only)
+        self.exact = locked(exact)
         self._units, self._tol = units, tol
 
     def looser(self, g) -> np.ndarray:

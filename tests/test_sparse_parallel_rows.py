@@ -1,10 +1,12 @@
-"""Rows of two obstacles at one node (cvxcontact/backends/signorini.py, looser_rows, _hand_over): a whole floor and a
+"""Rows of two obstacles at one node (cvxcontact/backends/parallel.py looser_rows, ParallelRows; signorini.py _hand_over; the AMG
+route, cvxcontact/backends/amg.py, own_dofs): a whole floor and a
 strip raised 3e-6 m above it over 0.3 <= x < 0.7 (tests/reach_scenes.lowered with a negative drop) under the block
 pushed by DELTA. Both rows of a node under the strip are the same row of G with gaps 3e-6 apart: closed together,
 K(A) of the sparse route is singular, and its steps met a singular system from every start (the 3D P2 default call,
 which takes the sparse route, raised SolverError; method="sparse" did in 2D P1/P2 and 3D P1 too). The looser row
-now stays open; the answers are checked against the condensed and full routes (interior point + exact finish, a
-different algorithm on the same discrete problem)."""
+now stays open, on the sparse and the AMG route; the answers are checked against the condensed and full routes
+(interior point + exact finish, a different algorithm on the same discrete problem). looser_rows against its
+definition on random rows: tests/test_looser_rows.py."""
 
 import numpy as np
 import pytest
@@ -12,8 +14,7 @@ import scipy.sparse as sp
 from reach_scenes import block2d, block3d, line, lowered, strip
 
 import cvxcontact as cc
-from cvxcontact.backends import signorini
-from cvxcontact.backends.signorini import looser_rows
+from cvxcontact.backends.parallel import ParallelRows, looser_rows
 from cvxcontact.backends.sparse import SparseContact
 
 pytestmark = [pytest.mark.numerics,    # re-run under every OpenBLAS kernel set by .ci/run
@@ -46,6 +47,22 @@ def test_looser_rows_keeps_the_tightest_of_each_parallel_group():
     assert looser_rows(G, g).tolist() == [True, False, False, False, True, False, False, False]
     # equal rows of equal gaps: the first kept
     assert looser_rows(sp.csr_matrix(np.ones((3, 2))), np.zeros(3)).tolist() == [False, True, True]
+
+
+def test_the_parallel_groups_are_found_once_per_geometry(monkeypatch):
+    """The sparse route keeps ParallelRows for the geometry (``cache.own``): two solves on one ContactSolver, one
+    grouping; the second a warm start from the first's set, the same answer."""
+    built, init = [], ParallelRows.__init__
+
+    def counted(self, *args, **kwargs):
+        built.append(1)
+        init(self, *args, **kwargs)
+
+    monkeypatch.setattr(ParallelRows, "__init__", counted)
+    solver = cc.ContactSolver(raised_3d(), "sigma1", degree=2, method="sparse")
+    first, again = solver.solve(), solver.solve()
+    assert first.ok and again.ok and again.info.route == cc.Route.WARM_START and len(built) == 1
+    assert u_gap(again, first) < 1e-13
 
 
 @pytest.fixture(scope="module")
@@ -82,7 +99,7 @@ def test_sparse_route_hands_over_to_the_condensed_route_where_its_steps_do_not_s
     """Without looser_rows the sparse steps meet a singular system from every start on this scene (as before the
     fix): the default call is then answered by the condensed route, the route recorded, no exception. Its answer
     is the condensed route's own (the same computation: measured u_gap 0.0)."""
-    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(ParallelRows, "looser", lambda self, g: np.zeros(self.m, dtype=bool))
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.ok and sol.info.method == "condensed" and sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert u_gap(sol, p2_3d["condensed"]) < 1e-13
@@ -98,7 +115,7 @@ def test_a_handed_over_scene_solved_again_gives_its_first_bits(p2_3d, monkeypatc
     ContactSolver, the scene is handed over again (before: the second solve's sparse steps started from the
     condensed answer's set, settled, and answered with the sparse route's bits, 5e-16 of |u| away) and gives the
     first solve's bits, a fresh solver's."""
-    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(ParallelRows, "looser", lambda self, g: np.zeros(self.m, dtype=bool))
     solver = cc.ContactSolver(raised_3d(), "sigma1", degree=2)
     first, again = solver.solve(), solver.solve()
     fresh = cc.ContactSolver(raised_3d(), "sigma1", degree=2).solve()
@@ -109,15 +126,32 @@ def test_a_handed_over_scene_solved_again_gives_its_first_bits(p2_3d, monkeypatc
         assert all(np.array_equal(a.force, b.force) for a, b in zip(sol.contacts, first.contacts))
 
 
-def test_amg_route_hands_two_obstacles_at_one_node_to_the_sparse_route():
-    """method="amg" on the 3D P1 scene: its Krylov route takes no two rows on one dof (two obstacles at a node), so
-    it hands the problem to the sparse route, which settles now (it raised SolverError before) and agrees with the
-    condensed route. Measured u_gap 4.2e-17 to 5.3e-17 (five kernel sets): bound 1e-13."""
+@pytest.mark.parametrize("degree, drop", [(1, -UP), (2, -UP), (1, 0.0), (2, 0.0)])
+def test_amg_route_keeps_two_obstacles_at_one_node(degree, drop):
+    """method="amg" on the 3D block on a floor and a strip raised by UP (or coincident with the floor, drop 0): the
+    AMG route takes it (it handed such scenes to the sparse route before: two rows at one node had no dof of their
+    own), the looser row open, and agrees with the sparse and condensed routes to its Krylov tolerance (1e-10).
+    Where the gaps are equal the whole force goes on one pair, the floor (the first), as on the sparse route: the
+    strip's forces are 0, and lambda_h on the side is the sparse route's. Measured over the five kernel sets, u_gap
+    against sparse and condensed: P1 9.5e-17 to 2.1e-16 (raised), <= 6.8e-30 (coincident); P2 7.8e-11 (raised),
+    7.0e-11 (coincident): bound 1e-8; forces and lambda_h against sparse (over their largest): P1 <= 1.5e-16, P2
+    <= 4.7e-10: bound 1e-7."""
     pytest.importorskip("pyamg")
-    amg = cc.solve(raised_3d(), "sigma1", degree=1, method="amg")
-    condensed = cc.solve(raised_3d(), "sigma1", degree=1, method="condensed")
-    assert amg.ok and amg.info.method == "sparse" and amg.info.route == cc.Route.SPARSE_ACTIVE_SET
-    assert u_gap(amg, condensed) < 1e-13
+    def scene():
+        return block3d((strip(-1, 2), lowered(0.3, 0.7, 3, drop=drop)))
+
+    amg = cc.solve(scene(), "sigma1", degree=degree, method="amg")
+    sparse = cc.solve(scene(), "sigma1", degree=degree, method="sparse")
+    condensed = cc.solve(scene(), "sigma1", degree=degree, method="condensed")
+    assert amg.ok and amg.info.method == "amg" and amg.info.route == cc.Route.KRYLOV_ACTIVE_SET
+    assert sparse.ok and condensed.ok and sparse.info.method == "sparse"
+    assert u_gap(amg, sparse) < 1e-8 and u_gap(amg, condensed) < 1e-8
+    for field in ("force", "lam"):
+        scale = max(np.abs(getattr(c, field)).max() for c in sparse.contacts)
+        assert max(np.abs(getattr(a, field) - getattr(b, field)).max()
+                   for a, b in zip(amg.contacts, sparse.contacts)) < 1e-7 * scale
+    if drop == 0.0:
+        assert not np.any(amg.contacts[1].force) and not np.any(sparse.contacts[1].force)
 
 
 def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
@@ -131,7 +165,7 @@ def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
         return out
 
     monkeypatch.setattr(SparseContact, "_refactor", slow)
-    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(ParallelRows, "looser", lambda self, g: np.zeros(self.m, dtype=bool))
     sol = cc.solve(raised_3d(), "sigma1", degree=2)
     assert sol.info.route == cc.Route.SPARSE_HANDED_OVER
     assert sol.info.timings["factorization"] >= 1000.0
@@ -141,7 +175,7 @@ def test_a_hand_over_keeps_the_sparse_route_s_factorisation_time(monkeypatch):
 def test_the_sparse_backend_takes_no_rows_looser_rows_would_be_wrong_on(field):
     """looser_rows holds for Signorini rows of fixed gaps only: a looser row penetrated under a compliance law
     carries a force, a row's force bounds its friction, a force-controlled obstacle's gaps g - R tau may change
-    order with tau. The sparse route, its only caller (and the AMG route, which hands over to it), takes none."""
+    order with tau. The sparse and AMG routes, its callers, take none."""
     from cvxcontact.backends import ProblemDescription, backend
 
     assert backend("sparse").accepts(ProblemDescription())
@@ -154,7 +188,7 @@ def test_above_sparse_rows_the_unsettled_steps_raise_a_typed_error_naming_the_fi
     routes to use (SPARSE_ROWS lowered below the scene's rows here)."""
     from cvxcontact import backends
 
-    monkeypatch.setattr(signorini, "looser_rows", lambda G, g: np.zeros(G.shape[0], dtype=bool))
+    monkeypatch.setattr(ParallelRows, "looser", lambda self, g: np.zeros(self.m, dtype=bool))
     monkeypatch.setattr(backends, "SPARSE_ROWS", 10)
     with pytest.raises(cc.SolverError, match=r"did not settle.*use method='condensed' or 'full'"):
         cc.solve(raised_3d(), "sigma1", degree=2, method="sparse")

@@ -9,7 +9,12 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
 
 * every contact row a has its own dof s(a): a dof of largest |coefficient| in that row that no other row
   touches (the nodal conditions "sigma1"/"sigma2" and rigid obstacles; not "gamma3", whose overlay rows share
-  their dofs: the route then hands the problem to the sparse route). A closed row is eliminated exactly,
+  their dofs: the route then hands the problem to the sparse route). The rows of several obstacles at one node
+  with one normal (a floor and a strip raised above it: G_a = c G_b, c > 0) share their group's dof
+  (:func:`own_dofs` with the groups of :class:`~cvxcontact.backends.parallel.ParallelRows`): all but the tightest
+  of them stay open (:func:`~cvxcontact.backends.parallel.looser_rows`, as on the sparse route: implied, their
+  force 0 at an answer; Signorini rows of fixed gaps only, all this route takes), so a closed row still has its
+  dof alone. A closed row is eliminated exactly,
   x_s(a) = (g_a - sum_{j != s(a)} G_aj x_j) / G_as(a), i.e. x = T_A r + x_A, and the system of the other dofs
   is K_A = T_A^T S T_A (its eliminated dofs kept as decoupled identity rows, so the size never changes),
   applied unformed (:class:`Reduced`: T_A is the identity but on the eliminated dofs, so a product costs one
@@ -70,6 +75,7 @@ from .condensed import quasi_definite, quasi_definite_rhs
 from .finish import Declined, Stop, active_set_steps, signs_hold
 from .krylov import GMRES_RESTART, gmres, v_cycle
 from .krylov import seeded as _seeded
+from .parallel import ParallelRows
 from .sparse import row_weights
 
 log = logging.getLogger(__name__)
@@ -142,12 +148,29 @@ def available() -> bool:
     return importlib.util.find_spec("pyamg") is not None
 
 
-def own_dofs(G):
+def own_dofs(G, parallel=None):
     """Each row's own dof: (dof, coefficient) arrays over the rows of ``G`` (m x n), the dof of largest
     |coefficient| among those no other row touches, or None if a row with entries has none, or if another
     entry of a row is some row's own dof (then eliminating one row would change another's). Rows without
-    entries get dof -1."""
+    entries get dof -1. ``parallel``: the parallel groups of ``G``'s rows
+    (:class:`~cvxcontact.backends.parallel.ParallelRows`, the rows of several obstacles at one node): the rows of
+    a group whose rows are all parallel (``exact``) share the own dof of its first row, each with its own
+    coefficient there (one of them at most is ever closed: the others are implied, :meth:`KrylovContact.solve`)."""
     G = sp.csr_matrix(G)
+    if parallel is not None and len(parallel.rows):
+        first = np.concatenate([[True], np.diff(parallel.cluster) != 0])
+        lead = parallel.rows[np.maximum.accumulate(np.where(first, np.arange(len(first)), 0))]
+        follow = ~first & parallel.exact[parallel.cluster]
+        kept = np.ones(G.shape[0], dtype=bool)
+        kept[parallel.rows[follow]] = False
+        out = own_dofs(G[kept])
+        if out is None:
+            return None
+        dof, coef = np.full(G.shape[0], -1), np.zeros(G.shape[0])
+        dof[kept], coef[kept] = out
+        rows, dof[parallel.rows[follow]] = parallel.rows[follow], dof[lead[follow]]
+        coef[rows] = np.asarray(G[rows, dof[rows]]).ravel()
+        return dof, coef
     m = G.shape[0]
     rows = np.repeat(np.arange(m), np.diff(G.indptr))
     used = np.bincount(G.indices, minlength=G.shape[1])
@@ -349,7 +372,8 @@ class KrylovContact:
         self.G = sp.hstack([sp.hstack([E @ b.jump, sp.csr_matrix((m, npf))])
                             for b, (_, npf) in zip(blocks, self.sizes)]).tocsr()
         self.G.sum_duplicates()
-        own = own_dofs(self.G)
+        self.parallel = ParallelRows(self.G)           # the rows of several obstacles at one node: one dof each
+        own = own_dofs(self.G, self.parallel)
         if own is None:
             raise SolverError("method 'amg': a contact row has no dof of its own (the overlay rows of 'gamma3' "
                               "share their dofs); use method='sparse'")
@@ -559,14 +583,16 @@ class KrylovContact:
         return self.S
 
     def solve(self, F, g, active, max_iter: int = 50):
-        """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``;
+        """The Signorini problem for loads ``F`` and gaps ``g`` (scaled) from the active set ``active``, the rows a
+        tighter parallel row implies under ``g`` kept open (:func:`~cvxcontact.backends.parallel.looser_rows`: they
+        share their dof with it, :func:`own_dofs`);
         ``(u, phi, y, active, steps)`` as :meth:`~cvxcontact.backends.sparse.SparseContact.solve`, or None
         if the steps cycle (on loose solves, they are retried from the last set on tighter ones, :data:`RETRIES`)
         or a Krylov solve misses its tolerance."""
         F, g = np.asarray(F, dtype=float), np.asarray(g, dtype=float)
         self.declined = None
         self._stacked()                          # dropped after the last solve: the same blocks stacked again
-        movable = self.dof >= 0
+        movable = (self.dof >= 0) & ~self.parallel.looser(g)    # an implied row (looser_rows) stays open
         last = [np.asarray(active, dtype=bool) & movable]
         count = [0]
 
@@ -616,7 +642,8 @@ class KrylovContact:
 def signorini(problem, cache, settings, timings):
     """The route of method "amg" for nodal Signorini rows: active-set steps with AMG-preconditioned Krylov
     solves, from the previous active set (re-solve), the rows the obstacles already close (3D) or the bonded
-    system; hands the problem to the sparse route where it cannot take it (gamma3) or a solve misses RTOL."""
+    system, a row a tighter parallel row implies left open (:meth:`KrylovContact.solve`); hands the problem to the
+    sparse route where it cannot take it (gamma3) or a solve misses RTOL."""
     from .result import RawResult, Route
     from .signorini import cheap_start, sparse
 

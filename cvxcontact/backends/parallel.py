@@ -2,7 +2,8 @@
 floor and a strip raised above part of it) are one row of G repeated, each with its own gap (docs/architecture.md,
 "The sparse route"). Closed together they make a mixed system (26) singular: two equal rows with equal gaps leave
 the split of the node's force between them free, two of different gaps cannot both close. Each route reads them
-here: the sparse route leaves the looser rows open (:func:`looser_rows`), the exact solve of (26) on an active set
+here: the sparse and AMG routes leave the looser rows open (:func:`looser_rows`, the groups once per geometry:
+:class:`ParallelRows`), the exact solve of (26) on an active set
 closes each repeated row once (:func:`repeated_rows`, :func:`~cvxcontact.backends.full.mixed_kkt`)."""
 
 from __future__ import annotations
@@ -10,7 +11,9 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["PARALLEL_TOL", "closed_once", "looser_rows", "repeated_rows"]
+from ..errors import locked
+
+__all__ = ["PARALLEL_TOL", "ParallelRows", "closed_once", "looser_rows", "repeated_rows"]
 
 PARALLEL_TOL = 1e-12
 """Two contact rows are parallel (:func:`looser_rows`) where their unit rows (each row of G over its 2-norm) agree to
@@ -50,16 +53,103 @@ def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     different). Where: the rows of several obstacles at one node, e.g. a floor and a strip raised 3e-6 m above it
     over part of it (3D P2 block: every step from the bonded or the coarse start met a singular system; only the
     tighter of two such rows can close unless the gaps coincide). Rows of no entry (held rows) are not matched.
-    For Signorini rows of fixed gaps only, as the sparse route (its caller) takes: not beside a compliance law (a
-    looser row penetrated carries a force too), friction (a row's force bounds its friction) or a force-controlled
-    obstacle (gaps g - R tau: their order may change with tau), which the "sparse" backend does not accept
-    (:mod:`cvxcontact.backends`)."""
-    looser = np.zeros(G.shape[0], dtype=bool)
-    for rows, U in _parallel(G, g)[0]:
-        for i in range(len(rows)):
-            if not looser[rows[i]]:
-                looser[rows[i + 1:]] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol
-    return looser
+    For Signorini rows of fixed gaps only, as the sparse and AMG routes (its callers) take: not beside a compliance
+    law (a looser row penetrated carries a force too), friction (a row's force bounds its friction) or a
+    force-controlled obstacle (gaps g - R tau: their order may change with tau), which the "sparse" and "amg"
+    backends do not accept (:mod:`cvxcontact.backends`). The groups once, the order per gaps:
+    :class:`ParallelRows` (``ParallelRows(G, tol).looser(g)``, this function)."""
+    return ParallelRows(G, tol).looser(g)
+
+
+class ParallelRows:
+    """The parallel groups of the rows of ``G`` (m x n), found once per geometry (the rows do not change with the
+    loads, the gaps do): :meth:`looser` orders each group by the gaps of a load case (:func:`looser_rows`).
+
+    Vectorised: the rows with entries are grouped by their pattern (per row length, a lexicographic sort of their
+    columns), then each group is split coordinate by coordinate where the sorted unit rows (G_a / |G_a|) differ
+    by more than ``tol``: rows in different clusters are never within ``tol`` of each other, so the greedy order of
+    :func:`looser_rows` (tightest first; a row not yet implied implies every later one within ``tol``) acts on
+    each cluster alone. A cluster of diameter <= ``tol`` in every coordinate (:attr:`exact`: the rows of several
+    obstacles at one node, equal to the last bit) keeps its tightest row and drops the others; any other cluster
+    (rows chained within ``tol`` but not all within it of each other) is ordered row by row as the greedy
+    definition reads. The diameter and the splits are exact in floating point (fl(a - b) is monotone in a and b),
+    so :meth:`looser` is the definition's answer on every input.
+
+    Attributes
+    ----------
+    rows : (k,) int ndarray, the rows in clusters of two or more, by cluster then row index
+    cluster : (k,) int ndarray, each one's cluster (0, 1, ...; sorted)
+    exact : (c,) bool ndarray, per cluster, whether its rows are all within ``tol`` of each other
+    """
+
+    def __init__(self, G, tol: float = PARALLEL_TOL):
+        G = sp.csr_matrix(G, copy=True)
+        G.eliminate_zeros()
+        G.sort_indices()
+        self.m = G.shape[0]
+        norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+        self._scale = np.where(norms > 0, norms, 1.0)                   # the gaps' normalisation
+        lengths = np.diff(G.indptr)
+        rows, cluster, units, count = [], [], {}, 0
+        for L in np.unique(lengths[norms > 0]):       # rows on the same unknowns (the only candidates), per length
+            R = np.flatnonzero((lengths == L) & (norms > 0))
+            at = G.indptr[R][:, None] + np.arange(L)
+            P, U = G.indices[at], G.data[at] / norms[R][:, None]
+            order = np.lexsort(P.T[::-1])                          # by pattern, then row index (a stable sort)
+            R, P, U = R[order], P[order], U[order]
+            new = np.concatenate([[True], (P[1:] != P[:-1]).any(axis=1)])
+            R, U, cid = _shared(R, U, np.cumsum(new))
+            for c in range(L):                        # split where the sorted c-th coordinate jumps by > tol
+                if len(R) == 0:
+                    break
+                order = np.lexsort((R, U[:, c], cid))
+                R, U, cid = R[order], U[order], cid[order]
+                jump = np.diff(U[:, c]) > tol
+                R, U, cid = _shared(R, U, np.cumsum(np.concatenate([[True], (np.diff(cid) != 0) | jump])))
+            if len(R) == 0:
+                continue
+            order = np.lexsort((R, cid))                             # by cluster, then row index
+            R, U, cid = R[order], U[order], cid[order]
+            first = np.flatnonzero(np.concatenate([[True], np.diff(cid) != 0]))
+            diameter = (np.maximum.reduceat(U, first, axis=0) - np.minimum.reduceat(U, first, axis=0)).max(axis=1)
+            for k in np.flatnonzero(~(diameter <= tol)):             # (NaN: not within tol, as the definition)
+                units[count + k] = U[first[k]:first[k + 1] if k + 1 < len(first) else len(R)]
+            rows.append(R)
+            cluster.append(count + np.repeat(np.arange(len(first)), np.diff(np.append(first, len(R)))))
+            count += len(first)
+        exact = np.ones(count, dtype=bool)
+        exact[list(units)] = False
+        self.rows = locked(np.concatenate(rows) if rows else np.zeros(0, dtype=int))      # (kept for the geometry:
+        self.cluster = locked(np.concatenate(cluster) if cluster else np.zeros(0, dtype=int))       # read-only)
+        self.exact = locked(exact)
+        self._units, self._tol = units, tol
+
+    def looser(self, g) -> np.ndarray:
+        """(m,) bool: the rows a tighter parallel row implies under gaps ``g`` (:func:`looser_rows`)."""
+        looser = np.zeros(self.m, dtype=bool)
+        if len(self.rows) == 0:
+            return looser
+        gap = (np.asarray(g, dtype=float) / self._scale)[self.rows]
+        order = np.lexsort((self.rows, gap, self.cluster))         # tightest first, ties by index
+        rows, cluster = self.rows[order], self.cluster[order]
+        lead = np.concatenate([[True], np.diff(cluster) != 0])
+        looser[rows[~lead & self.exact[cluster]]] = True
+        for k, U in self._units.items():                          # chained clusters: the greedy definition
+            mine = np.flatnonzero(self.cluster == k)               # (rows by index, U in the same order)
+            seq = mine[np.argsort(gap[mine], kind="stable")]
+            U, rows, out = U[seq - mine[0]], self.rows[seq], np.zeros(len(seq), dtype=bool)
+            for i in range(len(seq)):
+                if not out[i]:
+                    out[i + 1:] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= self._tol
+            looser[rows] = out
+        return looser
+
+
+def _shared(R, U, cid):
+    """The rows of ``R`` (their unit rows ``U``, cluster ids ``cid``, sorted) whose cluster has two or more."""
+    size = np.bincount(cid)
+    keep = size[cid] > 1
+    return R[keep], U[keep], cid[keep]
 
 
 def repeated_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:

@@ -17,11 +17,12 @@ from .finish import (Declined, Stop, force_displacements, independent_active_set
 from .full import mixed_kkt
 from .interface import condensation
 from .mixed import mixed_system, stacked, unstacked
-from .parallel import looser_rows
+from .parallel import ParallelRows, looser_rows
 from .program import release, timed_program
 from .result import Finish, RawResult, Route
 
-__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows", "looser_rows"]
+__all__ = ["full", "condensed", "sparse", "interface_finish", "newton_finish", "dependent_rows", "looser_rows",
+           "ParallelRows"]
 
 log = logging.getLogger(__name__)
 
@@ -232,7 +233,8 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     rows' answer whatever the size (measured: thin_layer(200) on a flat gap, and a thin clamped plate on a
     block with a crowned gap at 1,681 rows, where the steps from the bonded start cycle). Exact, no interior
     point (``polish`` does not apply). ``iterations`` counts the systems solved. A row a tighter parallel row implies
-    stays open (:func:`looser_rows`: two obstacles at one node); where the steps still do not settle, the condensed
+    stays open (:func:`looser_rows`: two obstacles at one node; the groups, :class:`ParallelRows`, kept in
+    ``cache.own["parallel rows"]`` for the geometry); where the steps still do not settle, the condensed
     route answers (:func:`_hand_over`, route ``SPARSE_HANDED_OVER``)."""
     from .sparse import COARSE_ROWS, SparseContact
 
@@ -245,7 +247,10 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and cache.active is not None
     rhs = np.concatenate([quasi_definite_rhs(b) for b in problem.blocks])
     free = ~problem.held_rows        # a row no unknown moves stays open (closed, K(A) would be singular; §8)
-    free &= ~looser_rows(sc.G, problem.g)    # so does a row a tighter parallel row implies (K(A) singular too)
+    if cache.own.get("parallel rows") is None:        # the parallel groups of the rows: once per geometry
+        cache.own["parallel rows"] = ParallelRows(sc.G)
+    free &= ~cache.own["parallel rows"].looser(problem.g)   # so does a row a tighter parallel row implies (K(A)
+    # singular too: :func:`looser_rows`)
     if not settings.warm_start:
         first = cheap_start(problem, free)
         fresh_analysis(sc, free if first is None else first)

@@ -109,20 +109,26 @@ def test_every_route_answers_repeated_rows_as_one_obstacle_of_the_tightest_gaps(
     2D P2 runs share lambda_h by segments (cvxcontact/solution/sides.py), so each pair reads its own multiplier,
     whose sum is not the one obstacle's (1.05 relative); the split is unique there (the floor's rows under the strip
     are implied), so each pair's force and lambda_h are asserted equal to method="full"'s instead (measured, five
-    kernel sets, every kind "raised over part": 2.7e-15 to 3.7e-15 of the reference's max; bound 1e-12)."""
+    kernel sets, every kind "raised over part": 2.7e-15 to 3.7e-15 of the reference's max; bound 1e-12).
+
+    The AMG route keeps the 3D scenes (the looser or repeated rows left open on their shared dof) and stops its Krylov
+    steps at 1e-10: exact to that, not to rounding. Measured (3D P2, five kernel sets): u 7.0e-11 .. 7.8e-11, forces
+    and lambda_h <= 4.7e-10 of the reference's max (3D P1, hexahedra: 2e-16); bounds 1e-8, 1e-7."""
     if method == "amg":
         pytest.importorskip("pyamg")
+    u_tol, f_tol, lam_tol = (1e-8, 1e-7, 1e-7) if method == "amg" else (1e-12, 2e-12, 1e-11)
     sol, ref = solved(body, kind, method), references(body, kind)
     assert ref.ok and sol.ok
-    assert rel(sol.u[0], ref.u[0]) < 1e-12
-    assert rel(summed(ref, sol, "force"), ref.contacts[0].force) < 2e-12
+    assert rel(sol.u[0], ref.u[0]) < u_tol
+    assert rel(summed(ref, sol, "force"), ref.contacts[0].force) < f_tol
     if not (body == "2D P2" and kind == "raised over part"):
-        assert rel(summed(ref, sol, "lam"), ref.contacts[0].lam) < 1e-11
+        assert rel(summed(ref, sol, "lam"), ref.contacts[0].lam) < lam_tol
     if kind == "raised over part":
         full = solved(body, kind, "full")
+        pair_tol = 1e-7 if method == "amg" else 1e-12
         for mine, theirs in zip(sol.contacts, full.contacts):
-            assert np.abs(mine.force - theirs.force).max() <= 1e-12 * np.abs(ref.contacts[0].force).max()
-            assert np.abs(mine.lam - theirs.lam).max() <= 1e-12 * np.abs(ref.contacts[0].lam).max()
+            assert np.abs(mine.force - theirs.force).max() <= pair_tol * np.abs(ref.contacts[0].force).max()
+            assert np.abs(mine.lam - theirs.lam).max() <= pair_tol * np.abs(ref.contacts[0].lam).max()
 
 
 def test_repeated_rows_by_hand():

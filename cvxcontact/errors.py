@@ -138,8 +138,8 @@ def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     text = str(w.message) if isinstance(w.message, Warning) else w.message
     category = w.message.__class__ if isinstance(w.message, Warning) else w.category
     action = next((a for a, msg, cat, mod, line in warnings.filters
-                   if (msg is None or msg.match(text)) and issubclass(category, cat)
-                   and (mod is None or mod.match(module or "")) and (line == 0 or line == w.lineno)),
+                   if _matches(msg, text) and issubclass(category, cat) and _matches(mod, module or "")
+                   and (line == 0 or line == w.lineno)),
                   warnings.defaultaction)
     key = {"default": (text, category, w.lineno), "module": (text, category, 0), "once": (text, category)}.get(action)
     if key is None:
@@ -152,6 +152,17 @@ def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     shown.add(key)
     _SHOWN[scope] = (filters, tuple(filters), shown)
     return seen
+
+
+def _matches(pattern, text: str) -> bool:
+    """Whether a filter's message or module entry matches ``text`` as Python's own filter matching does: None
+    matches all, a plain string only itself (Python's built-in default filters hold one, the module "__main__" of
+    ``('default', None, DeprecationWarning, '__main__', 0)``), a compiled pattern where it matches at the start."""
+    if pattern is None:
+        return True
+    if type(pattern) is str:
+        return pattern == text
+    return pattern.match(text) is not None
 
 
 class SweepResultsError(CvxContactError, ValueError):

@@ -239,3 +239,25 @@ def test_reissue_names_the_module_of_a_line_off_the_stack(tmp_path, monkeypatch)
         warnings.filterwarnings("error", module=re.escape(str(tmp_path / "nowhere")) + "$")
         with pytest.raises(UserWarning, match="from a library"):
             reissue(caught)
+
+
+def test_reissue_takes_a_plain_string_filter_as_python_does():
+    """Python's built-in default filters hold a plain string, the module "__main__" of ``('default', None,
+    DeprecationWarning, '__main__', 0)``, which Python matches by equality: the de-duplication's filter matching
+    called ``.match`` on it and raised AttributeError for every recorded DeprecationWarning (a library's, inside a
+    step of cc.adapt) in a plain script. Shown once per place as Python shows the same warning issued there."""
+    def record():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            warnings.warn("an old call", DeprecationWarning)
+        return caught
+
+    for module, shown in ((__name__, 1), ("__main__", 0)):
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.resetwarnings()
+            warnings.filters[:] = [("default", None, DeprecationWarning, module, 0),
+                                   ("ignore", None, DeprecationWarning, None, 0)]
+            warnings._filters_mutated()
+            for _ in range(3):
+                reissue(record())
+        assert [str(w.message) for w in seen] == ["an old call"] * shown, module

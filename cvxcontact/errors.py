@@ -134,7 +134,8 @@ def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     object (a caller's ``catch_warnings`` makes a new one; the package's own restores it) with the same entries
     (``filterwarnings``, ``simplefilter`` and ``resetwarnings`` change them). Python's registries forget what they
     showed at any change of the filters, the package's own ``catch_warnings`` included; this record does not
-    forget on those. Records ``w`` as shown if it will be."""
+    forget on those, nor on a caller's that leave the same list and entries behind (an empty ``catch_warnings``
+    block, a filter added again unchanged), where Python's would. Records ``w`` as shown if it will be."""
     text = str(w.message) if isinstance(w.message, Warning) else w.message
     category = w.message.__class__ if isinstance(w.message, Warning) else w.category
     action = next((a for a, msg, cat, mod, line in warnings.filters

@@ -123,15 +123,17 @@ def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
 
 
 _SHOWN: dict = {}
-"""What :func:`reissue` has shown under a de-duplicating action: {module name ("" for "once"): (the filters list
-object, its contents, the keys shown)}."""
+"""What :func:`reissue` has shown under a de-duplicating action: {module name: (the filters list object, its
+contents, the keys shown)}."""
 
 
 def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     """Whether the caller's filters (``warnings.filters`` as it is now) de-duplicate the recorded warning ``w``
     issued under ``module`` ("default": per text, category and line; "module": per text and category in the module;
-    "once": per text and category) and :func:`reissue` showed it already under the same filters: the same list
-    object (a caller's ``catch_warnings`` makes a new one; the package's own restores it) with the same entries
+    "once": per text and category in the module, as CPython's ``_warnings`` does where a registry is given, as
+    here, rather than in the process-wide ``onceregistry``) and :func:`reissue` showed it already under the same
+    filters: the same list object (a caller's ``catch_warnings`` makes a new one; the package's own restores it)
+    with the same entries
     (``filterwarnings``, ``simplefilter`` and ``resetwarnings`` change them). Python's registries forget what they
     showed at any change of the filters, the package's own ``catch_warnings`` included; this record does not
     forget on those, nor on a caller's that leave the same list and entries behind (an empty ``catch_warnings``
@@ -142,10 +144,11 @@ def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
                    if _matches(msg, text) and issubclass(category, cat) and _matches(mod, module or "")
                    and (line == 0 or line == w.lineno)),
                   warnings.defaultaction)
-    key = {"default": (text, category, w.lineno), "module": (text, category, 0), "once": (text, category)}.get(action)
+    key = {"default": (text, category, w.lineno), "module": (text, category, 0),
+           "once": (text, category, 0)}.get(action)
     if key is None:
         return False
-    scope, filters = "" if action == "once" else module, warnings.filters
+    scope, filters = module, warnings.filters
     same, contents, shown = _SHOWN.get(scope, (None, None, set()))
     if same is not filters or contents != tuple(filters):
         shown = set()

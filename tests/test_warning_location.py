@@ -261,3 +261,32 @@ def test_reissue_takes_a_plain_string_filter_as_python_does():
             for _ in range(3):
                 reissue(record())
         assert [str(w.message) for w in seen] == ["an old call"] * shown, module
+
+
+def test_reissue_shows_once_per_module_under_once_as_python_does(tmp_path, monkeypatch):
+    """Under "once" CPython (its ``_warnings``, given a module's registry, as ``warnings.warn`` and ``reissue``
+    give) shows a warning once per text and category in each module, not once in the process: the same words
+    from two modules, issued twice each, are shown twice. The de-duplication kept one process-wide record for
+    "once" and showed them once."""
+    for name in ("rsmall_a", "rsmall_b"):
+        (tmp_path / f"{name}.py").write_text("import warnings\n\ndef f():\n    warnings.warn('the same words')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    libraries = [__import__(n) for n in ("rsmall_a", "rsmall_b")] * 2
+
+    def record(f):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            f()
+        return caught
+
+    counts = []
+    for again in (False, True):
+        with warnings.catch_warnings(record=True) as shown:
+            warnings.simplefilter("once")
+            for library in libraries:
+                if again:
+                    reissue(record(library.f))
+                else:
+                    library.f()
+        counts.append(len(shown))
+    assert counts == [2, 2]                 # Python's own, then reissue's

@@ -123,28 +123,32 @@ def reissue(caught: Iterable[warnings.WarningMessage]) -> None:
 
 
 _SHOWN: dict = {}
-"""What :func:`reissue` has shown under a de-duplicating action: {module name ("" for "once"): (the filters list
-object, its contents, the keys shown)}."""
+"""What :func:`reissue` has shown under a de-duplicating action: {module name: (the filters list object, its
+contents, the keys shown)}."""
 
 
 def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     """Whether the caller's filters (``warnings.filters`` as it is now) de-duplicate the recorded warning ``w``
     issued under ``module`` ("default": per text, category and line; "module": per text and category in the module;
-    "once": per text and category) and :func:`reissue` showed it already under the same filters: the same list
-    object (a caller's ``catch_warnings`` makes a new one; the package's own restores it) with the same entries
+    "once": per text and category in the module, as CPython's ``_warnings`` does where a registry is given, as
+    here, rather than in the process-wide ``onceregistry``) and :func:`reissue` showed it already under the same
+    filters: the same list object (a caller's ``catch_warnings`` makes a new one; the package's own restores it)
+    with the same entries
     (``filterwarnings``, ``simplefilter`` and ``resetwarnings`` change them). Python's registries forget what they
     showed at any change of the filters, the package's own ``catch_warnings`` included; this record does not
-    forget on those. Records ``w`` as shown if it will be."""
+    forget on those, nor on a caller's that leave the same list and entries behind (an empty ``catch_warnings``
+    block, a filter added again unchanged), where Python's would. Records ``w`` as shown if it will be."""
     text = str(w.message) if isinstance(w.message, Warning) else w.message
     category = w.message.__class__ if isinstance(w.message, Warning) else w.category
     action = next((a for a, msg, cat, mod, line in warnings.filters
-                   if (msg is None or msg.match(text)) and issubclass(category, cat)
-                   and (mod is None or mod.match(module or "")) and (line == 0 or line == w.lineno)),
+                   if _matches(msg, text) and issubclass(category, cat) and _matches(mod, module or "")
+                   and (line == 0 or line == w.lineno)),
                   warnings.defaultaction)
-    key = {"default": (text, category, w.lineno), "module": (text, category, 0), "once": (text, category)}.get(action)
+    key = {"default": (text, category, w.lineno), "module": (text, category, 0),
+           "once": (text, category, 0)}.get(action)
     if key is None:
         return False
-    scope, filters = "" if action == "once" else module, warnings.filters
+    scope, filters = module, warnings.filters
     same, contents, shown = _SHOWN.get(scope, (None, None, set()))
     if same is not filters or contents != tuple(filters):
         shown = set()
@@ -152,6 +156,17 @@ def _shown_before(w: warnings.WarningMessage, module: str | None) -> bool:
     shown.add(key)
     _SHOWN[scope] = (filters, tuple(filters), shown)
     return seen
+
+
+def _matches(pattern, text: str) -> bool:
+    """Whether a filter's message or module entry matches ``text`` as Python's own filter matching does: None
+    matches all, a plain string only itself (Python's built-in default filters hold one, the module "__main__" of
+    ``('default', None, DeprecationWarning, '__main__', 0)``), a compiled pattern where it matches at the start."""
+    if pattern is None:
+        return True
+    if type(pattern) is str:
+        return pattern == text
+    return pattern.match(text) is not None
 
 
 class SweepResultsError(CvxContactError, ValueError):

@@ -239,3 +239,54 @@ def test_reissue_names_the_module_of_a_line_off_the_stack(tmp_path, monkeypatch)
         warnings.filterwarnings("error", module=re.escape(str(tmp_path / "nowhere")) + "$")
         with pytest.raises(UserWarning, match="from a library"):
             reissue(caught)
+
+
+def test_reissue_takes_a_plain_string_filter_as_python_does():
+    """Python's built-in default filters hold a plain string, the module "__main__" of ``('default', None,
+    DeprecationWarning, '__main__', 0)``, which Python matches by equality: the de-duplication's filter matching
+    called ``.match`` on it and raised AttributeError for every recorded DeprecationWarning (a library's, inside a
+    step of cc.adapt) in a plain script. Shown once per place as Python shows the same warning issued there."""
+    def record():
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            warnings.warn("an old call", DeprecationWarning)
+        return caught
+
+    for module, shown in ((__name__, 1), ("__main__", 0)):
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.resetwarnings()
+            warnings.filters[:] = [("default", None, DeprecationWarning, module, 0),
+                                   ("ignore", None, DeprecationWarning, None, 0)]
+            warnings._filters_mutated()
+            for _ in range(3):
+                reissue(record())
+        assert [str(w.message) for w in seen] == ["an old call"] * shown, module
+
+
+def test_reissue_shows_once_per_module_under_once_as_python_does(tmp_path, monkeypatch):
+    """Under "once" CPython (its ``_warnings``, given a module's registry, as ``warnings.warn`` and ``reissue``
+    give) shows a warning once per text and category in each module, not once in the process: the same words
+    from two modules, issued twice each, are shown twice. The de-duplication kept one process-wide record for
+    "once" and showed them once."""
+    for name in ("rsmall_a", "rsmall_b"):
+        (tmp_path / f"{name}.py").write_text("import warnings\n\ndef f():\n    warnings.warn('the same words')\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    libraries = [__import__(n) for n in ("rsmall_a", "rsmall_b")] * 2
+
+    def record(f):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            f()
+        return caught
+
+    counts = []
+    for again in (False, True):
+        with warnings.catch_warnings(record=True) as shown:
+            warnings.simplefilter("once")
+            for library in libraries:
+                if again:
+                    reissue(record(library.f))
+                else:
+                    library.f()
+        counts.append(len(shown))
+    assert counts == [2, 2]                 # Python's own, then reissue's

@@ -49,8 +49,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import frozen
-from ..fem.assembly import VOIGT, gradients, voigt_strains
+from ..errors import frozen, locked
+from ..fem.assembly import VOIGT, gradients, voigt_strain_rows
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys
@@ -117,7 +117,7 @@ def _fields(g, u, phi):
     (m, q, ...) with q = d + 1, or q = 1 where the fields are constant on a cell (then every vertex has it)."""
     c, e, kappa = g.tensors
     u = np.asarray(u, dtype=float)
-    eps = _strains(g.G, np.take(u.ravel(), g.dofs))
+    eps = _strains(g, u)
     sigma = _times(eps, c.T)
     gphi = D = None
     if e is not None:
@@ -135,13 +135,17 @@ def _times(a, b) -> np.ndarray:
     return (a.reshape(-1, a.shape[-1]) @ b).reshape(a.shape[:-1] + (b.shape[1],))
 
 
-def _strains(G, ue) -> np.ndarray:
-    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values, G (m, q, d, k) the shape gradients, ue (m, d k)
-    the element displacements (:func:`~cvxcontact.fem.assembly.voigt_strains`: without forming B)."""
-    m, q, dim, _ = G.shape
+def _strains(g, u) -> np.ndarray:
+    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values of the displacements ``u`` (nodal, node-major)
+    on the :class:`Geometry` ``g`` (G (m, q, d, k) its shape gradients, ue the element displacements), from its
+    component-major copies (:attr:`Geometry.rows`: :func:`~cvxcontact.fem.assembly.voigt_strain_rows`, the numbers
+    of :func:`~cvxcontact.fem.assembly.voigt_strains` without forming B)."""
+    G, dofs = g.rows
+    q, dim, k, m = G.shape
+    ue = np.take(np.asarray(u, dtype=float).ravel(), dofs).reshape(k, dim, m)
     eps = np.empty((m, q, len(VOIGT[dim])))
     for i in range(q):
-        eps[:, i] = voigt_strains(G[:, i], ue)
+        eps[:, i] = voigt_strain_rows(G[i], ue).T
     return eps
 
 
@@ -213,11 +217,16 @@ class Geometry:
         self._roles: dict = {}
 
     @cached_property
-    def dofs(self) -> np.ndarray:
-        """(m, k d) the element displacements' indices in the flattened nodal displacements (node-major)."""
+    def rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """The shape gradients and the element displacements' indices component-major, for :func:`_strains`: G
+        (q, d, k, m) (1/m) and (k d, m) the index of node k's component i in the flattened nodal displacements
+        (node-major) at row k d + i, each row contiguous over the m cells (products of contiguous rows:
+        :func:`~cvxcontact.fem.assembly.voigt_strain_rows`). Kept per geometry: 8 bytes per gradient entry (a
+        second copy of the gradients) and 4 per index (int32 while every dof index fits, else int64)."""
         k, dim = self.el.shape[1], self.dim
         index = np.int32 if (int(self.el.max()) + 1) * dim <= np.iinfo(np.int32).max else np.int64
-        return (dim * self.el[:, :, None] + np.arange(dim)).reshape(len(self.el), k * dim).astype(index)
+        dofs = (dim * self.el.T[:, None, :].astype(index) + np.arange(dim, dtype=index)[:, None]).reshape(k * dim, -1)
+        return locked(self.G.transpose(1, 2, 3, 0)), locked(dofs)
 
     def roles(self, mech: dict, elec: dict, partial: dict) -> _Roles:
         """The :class:`_Roles` of the boundary parts' mechanical roles ``mech`` and electric roles ``elec`` (tag ->

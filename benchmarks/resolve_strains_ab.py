@@ -5,9 +5,9 @@ node-major), and the held rows shared by a load case against formed again, inter
 Scene: ``apps.demo.two_blocks(nx)``, solved once by a ContactSolver (its estimate's Geometry kept). Then ``rounds``
 rounds, each timing (process CPU ms) the whole ``estimate`` of that solution once with each side's ``_fields``
 (order alternating; "before": the base commit's ``_fields`` and ``_strains`` read from git and run in a module of
-their own on today's Geometry, given its node-major ``dofs``), and ``held_rows`` of the problem's rows. Prints the
-medians, the ratio, and the estimates' agreement (absolute, parts, indicators: identical or the largest relative
-difference).
+their own on the gradients and dofs in the base's layout, formed before the rounds: ``base_layout``), and
+``held_rows`` of the problem's rows. Prints the medians, the ratio, and the estimates' agreement (absolute, parts,
+indicators: identical or the largest relative difference).
 
 Run (one thread):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/resolve_strains_ab.py 560 15
@@ -19,7 +19,6 @@ import sys
 import time
 import types
 import warnings
-from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -46,23 +45,31 @@ def base_fields(base):
     return module._fields
 
 
-def node_major_dofs(g):
-    """The base commit's ``Geometry.dofs``: (m, k d) the element displacements' indices, node-major."""
+def base_layout(g):
+    """What the base commit's ``_fields`` read of a Geometry, in its layout: the barycentric gradients (m, d, d + 1)
+    contiguous, G (m, q, d, k) contiguous (P1: a view of them, as ``corner_gradients`` returns it), the node-major
+    ``dofs`` (m, k d)."""
     k, dim = g.el.shape[1], g.dim
-    return (dim * g.el[:, :, None] + np.arange(dim)).reshape(len(g.el), k * dim).astype(np.int32)
+    gradL = np.ascontiguousarray(g.gradL)
+    G = gradL[:, None] if g.G.shape[1] == 1 else np.ascontiguousarray(g.G)
+    dofs = (dim * g.el[:, :, None] + np.arange(dim)).reshape(len(g.el), k * dim).astype(np.int32)
+    return types.SimpleNamespace(G=G, gradL=gradL, dofs=dofs, el=g.el, tensors=g.tensors, measure=g.measure)
 
 
 def main():
     warnings.simplefilter("ignore")
     nx, rounds = int(sys.argv[1]), int(sys.argv[2])
     base = sys.argv[3] if len(sys.argv) > 3 else BASE
-    sides = {"before": base_fields(base), "after": est._fields}
-    dofs = cached_property(node_major_dofs)
-    dofs.__set_name__(est.Geometry, "dofs")
-    est.Geometry.dofs = dofs                              # (read by the base's _fields only)
+    fields, layouts = base_fields(base), {}
+
+    def before(g, u, phi):
+        return fields(layouts[id(g)], u, phi)              # (the layouts formed before the rounds)
+
+    sides = {"before": before, "after": est._fields}
     scene, solver, first = two_blocks_solver(nx)
     sol = solver.solve(scene.with_loads(0, body_force=(0.0, -2e9 * 0.37)))
     problem = solver.problem
+    layouts.update({id(g): base_layout(g) for g in solver._geometry.values()})
     t = {"before": [], "after": [], "held": []}
     answers = {}
     for r in range(rounds):

@@ -1,8 +1,9 @@
-"""What a re-solve reads in another layout or keeps per geometry since h-resolve3: the estimate's strains from
-component-major copies of the shape gradients and the element dofs (fem.assembly.voigt_strain_rows,
-estimate.Geometry.rows) and the held rows a load case of the same contact rows shares with the one before
-(discrete.problem._derive). The oracles: voigt_strains (the einsum over strided columns, the numbers before), the
-strain matrices' products, held_rows formed afresh, and the estimate without a kept Geometry."""
+"""What a re-solve reads in another layout or keeps per geometry since h-resolve3: the estimate's strains and
+potential gradients from the shape gradients and the element dofs kept component-major
+(fem.assembly.voigt_strain_rows, gradient_rows, estimate.Geometry.rows) and the held rows a load case of the same
+contact rows shares with the one before (discrete.problem._derive). The oracles: voigt_strains (the einsum over
+strided columns, the numbers before), the strain matrices' products, grad phi's einsum on the (m, q, d, k)
+gradients, held_rows formed afresh, and the estimate without a kept Geometry."""
 
 import numpy as np
 import pytest
@@ -10,7 +11,14 @@ from conftest import rel, two_blocks
 
 import cvxcontact as cc
 from cvxcontact.discrete.problem import held_rows
-from cvxcontact.fem.assembly import strain_matrix, voigt_strain_rows, voigt_strains
+from cvxcontact.fem.assembly import (
+    gradient_rows,
+    gradients,
+    strain_matrix,
+    voigt_strain_rows,
+    voigt_strains,
+)
+from cvxcontact.fem.space import space
 from cvxcontact.solution import estimate as est
 
 pytestmark = pytest.mark.numerics
@@ -49,6 +57,32 @@ def test_the_geometry_rows_are_its_gradients_and_dofs_read_only(dim, degree):
     ue = u[g.el].reshape(m, k * dim)
     want = np.stack([voigt_strains(g.G[:, i], ue) for i in range(g.G.shape[1])], axis=1)
     assert np.array_equal(est._strains(g, u), want)
+
+
+@pytest.mark.parametrize("degree", [1, 2])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_the_geometry_keeps_one_copy_of_the_gradients_and_grad_phi_is_the_einsum(dim, degree):
+    """G (m, q, d, k) is corner_gradients' and a view of the component-major copy; for P1 (G then a view of the
+    barycentric gradients) gradL is a view of it too: one copy of the gradients, read-only. The fields' grad phi
+    (gradient_rows on the rows) is the einsum of G with the cells' potentials to rounding (measured: P1 identical,
+    P2 1.2e-16 relative; asserted 1e-13), and its strains are those of _strains."""
+    mesh = cc.rectangle(nx=5, ny=3) if dim == 2 else cc.box(nx=2, ny=2, nz=2)
+    body = cc.Body(mesh, cc.materials.PZT5A, clamped="bottom", grounded="top")
+    g = est.Geometry(body, degree)
+    _, gradL = gradients(mesh.points, mesh.cells)
+    el, G = space(degree, mesh.cell).corner_gradients(body, gradL)
+    assert np.array_equal(g.G, G) and np.array_equal(g.gradL, gradL) and np.array_equal(g.el, el)
+    assert np.shares_memory(g.G, g.rows[0]) and not g.G.flags.writeable
+    assert np.shares_memory(g.gradL, g.rows[0]) == (degree == 1)
+    rng = np.random.default_rng(dim * degree)
+    n = int(el.max()) + 1
+    u, phi = rng.standard_normal((n, dim)), rng.standard_normal(n)
+    eps, gphi = est._fields(g, u, phi)[:2]
+    assert rel(gphi, np.einsum("mvdj,mj->mvd", G, phi[el])) < 1e-13
+    assert np.array_equal(eps, est._strains(g, u))
+    grad = np.ascontiguousarray(G[:, 0].transpose(1, 2, 0))
+    want = np.einsum("mdj,mj->md", G[:, 0], phi[el])
+    assert rel(gradient_rows(grad, np.ascontiguousarray(phi[el].T)).T, want) < 1e-13
 
 
 def test_a_solvers_estimate_of_each_load_case_is_the_fresh_one():

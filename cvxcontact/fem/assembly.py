@@ -40,8 +40,8 @@ from ..errors import SceneError
 from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "NodePattern", "assemble", "assemble_loads", "assemble_matrices", "coefficients",
-           "constrained", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
-           "strain_matrix", "strain_points", "voigt_strain_rows", "voigt_strains"]
+           "constrained", "gradient_products", "gradient_rows", "gradients", "lifted", "points_strain",
+           "prolongation", "strain_matrix", "strain_points", "voigt_strain_rows", "voigt_strains"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -181,6 +181,20 @@ def voigt_strain_rows(grad, u) -> np.ndarray:
             for n in range(1, k):
                 t += grad[i, n] * u[n, j]
             e += t
+    return out
+
+
+def gradient_rows(grad, values) -> np.ndarray:
+    """(dim, m) the gradient sum_n grad[:, n] values[n] of a field with nodal ``values`` (k, m) on basis gradients
+    ``grad`` (dim, k, m) (1/m), component-major as :func:`voigt_strain_rows` (each row contiguous over the m cells;
+    each sum in node order from the first product)."""
+    dim, k, m = grad.shape
+    out = np.empty((dim, m))
+    for d in range(dim):
+        e = out[d]
+        np.multiply(grad[d, 0], values[0], out=e)
+        for n in range(1, k):
+            e += grad[d, n] * values[n]
     return out
 
 

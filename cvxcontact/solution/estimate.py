@@ -50,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import frozen, locked
-from ..fem.assembly import VOIGT, gradients, voigt_strain_rows
+from ..fem.assembly import VOIGT, gradient_rows, gradients, voigt_strain_rows
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys
@@ -121,8 +121,11 @@ def _fields(g, u, phi):
     sigma = _times(eps, c.T)
     gphi = D = None
     if e is not None:
-        pe = np.take(np.asarray(phi, dtype=float), g.el)
-        gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
+        pe = np.take(np.asarray(phi, dtype=float), g.el.T)         # (k, m): the rows of the cells' potentials
+        G = g.rows[0]
+        gphi = np.empty(g.G.shape[:3])
+        for i in range(len(G)):
+            gphi[:, i] = gradient_rows(G[i], pe).T
         sigma += _times(gphi, e)                                     # in place: the same sums, one array fewer
         D = _times(eps, e.T)
         D -= _times(gphi, kappa.T)
@@ -210,23 +213,28 @@ class Geometry:
         self.tensors = c, _, kappa = body.material.tensors(self.dim)
         self.cT = smallest_eigenvalue(c, True)
         self.kT = smallest_eigenvalue(kappa, False) if kappa is not None else None
-        self.measure, self.gradL = gradients(mesh.points, mesh.cells)
-        # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL, one copy of the gradients)
-        self.el, self.G = space(degree, mesh.cell).corner_gradients(body, self.gradL)
+        self.measure, gradL = gradients(mesh.points, mesh.cells)
+        # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL). Kept component-major (rows, _fields' products of
+        # contiguous rows); G and, for P1, gradL are views of that copy: one copy of the gradients either way
+        self.el, G = space(degree, mesh.cell).corner_gradients(body, gradL)
+        self._G = locked(G.transpose(1, 2, 3, 0))
+        self.G = self._G.transpose(3, 0, 1, 2)
+        self.gradL = self._G[0].transpose(2, 0, 1) if np.may_share_memory(G, gradL) else gradL
         self._parts: dict = {}
         self._roles: dict = {}
 
     @cached_property
     def rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """The shape gradients and the element displacements' indices component-major, for :func:`_strains`: G
-        (q, d, k, m) (1/m) and (k d, m) the index of node k's component i in the flattened nodal displacements
-        (node-major) at row k d + i, each row contiguous over the m cells (products of contiguous rows:
-        :func:`~cvxcontact.fem.assembly.voigt_strain_rows`). Kept per geometry: 8 bytes per gradient entry (a
-        second copy of the gradients) and 4 per index (int32 while every dof index fits, else int64)."""
+        """The shape gradients and the element displacements' indices component-major, for :func:`_fields`: G
+        (q, d, k, m) (1/m; the one copy of the gradients kept, :attr:`G` its (m, q, d, k) view) and (k d, m) the
+        index of node k's component i in the flattened nodal displacements (node-major) at row k d + i, each row
+        contiguous over the m cells (products of contiguous rows: :func:`~cvxcontact.fem.assembly.
+        voigt_strain_rows`, :func:`~cvxcontact.fem.assembly.gradient_rows`). The indices are kept per geometry, 4
+        bytes each (int32 while every dof index fits, else int64)."""
         k, dim = self.el.shape[1], self.dim
         index = np.int32 if (int(self.el.max()) + 1) * dim <= np.iinfo(np.int32).max else np.int64
         dofs = (dim * self.el.T[:, None, :].astype(index) + np.arange(dim, dtype=index)[:, None]).reshape(k * dim, -1)
-        return locked(self.G.transpose(1, 2, 3, 0)), locked(dofs)
+        return self._G, locked(dofs)
 
     def roles(self, mech: dict, elec: dict, partial: dict) -> _Roles:
         """The :class:`_Roles` of the boundary parts' mechanical roles ``mech`` and electric roles ``elec`` (tag ->

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SceneError, frozen
+from ..errors import SceneError, frozen, locked
 from ..fem.kernel import Kernel, check_well_posed, rigid_kernel
 from ..fem.rigidfit import RigidFit, rigid_fit
 from ..fem.space import ContactLines, Space
@@ -335,7 +335,8 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
             jumps[k] = lines.interface.jump(k, len(systems[k].f) // space.dim)
         return jumps[k]
 
-    if previous is not None and previous.lines.key() == lines.key():
+    same_rows = previous is not None and previous.lines.key() == lines.key()
+    if same_rows:
         blocks = tuple(blk.with_loads(s, un) for blk, s in zip(previous.blocks, systems))
     elif previous is not None:                              # the same matrices, new contact rows
         blocks = tuple(replace(blk, jump=(jump(k) @ s.Tu).tocsr()).with_loads(s, un)
@@ -344,7 +345,9 @@ def _derive(scene, space, condition, law, nodes, matrices, scale, previous=None)
         blocks = tuple(Block.scaled(s, jump(k), un) for k, s in enumerate(systems))
     E = lines.E
     translations = tuple((E @ o.reduced_rows, (o.basis.T @ o.force) / un.force) for o in forced)
-    held = held_rows(E, blocks, translations)
+    # the same rows E (their key) and jumps and no obstacle under force control: the same held rows, not re-read
+    unforced = not translations and previous is not None and not previous.translations
+    held = previous.held_rows if same_rows and unforced else held_rows(E, blocks, translations)
     shift = np.zeros(len(lines.gap))             # [u_D nu]: prescribed displacements of contact nodes (§11)
     for k, s in enumerate(systems):
         if s.u_fixed is not None and np.any(s.u_fixed):
@@ -372,7 +375,7 @@ def held_rows(E, blocks, translations) -> np.ndarray:
     reach = sum((abs(E @ b.jump) @ np.ones(b.jump.shape[1]) for b in blocks), np.zeros(E.shape[0]))
     for R, _ in translations:                                       # a force-controlled obstacle can move
         reach = reach + abs(R) @ np.ones(R.shape[1])
-    return reach == 0
+    return locked(reach == 0)              # (read-only: a load case of the same rows shares it, _derive)
 
 
 def check_reachable(problem: DiscreteProblem) -> None:

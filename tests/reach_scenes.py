@@ -111,6 +111,20 @@ def box_on_boxes(cuts=(0.4,), n=3):
     return cc.Scene(top, *lows, contacts=[cc.Contact(top, "bottom", low, "top") for low in lows])
 
 
+def block_on_blocks2d(law=None, cuts=(0.4,), flip=False):
+    """The 2D steel block [0, 1] x [0, H] (5 x 2 cells, clamped on its top, pressed down by its weight, sheared on
+    its right side) interfering by 1e-5 m with lower blocks [c_i, c_i+1] x [-H, 0] (7 cells per m along x) clamped
+    at their base (0 = c_0 < ``cuts`` < 1), ``law`` on each pair: its bottom held by every pair, posed from the upper
+    block (its bottom each pair's first side) or, ``flip``, from each lower one (its second side)."""
+    top = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=5, ny=2), STEEL, clamped="top", contact="bottom",
+                  body_force=(0.0, -2e9), traction={"right": (0.0, 1e8)}, name="upper")
+    edges = (0.0, *cuts, 1.0)
+    lows = [cc.Body(cc.rectangle(x=(a, b), y=(-H, 0.0), nx=max(1, round(7 * (b - a))), ny=2), STEEL,
+                    clamped="bottom", contact="top", name=f"lower {i}") for i, (a, b) in enumerate(pairwise(edges))]
+    return cc.Scene(top, *lows, contacts=[cc.Contact(low, "top", top, "bottom", gap=-1e-5, law=law) if flip else
+                                          cc.Contact(top, "bottom", low, "top", gap=-1e-5, law=law) for low in lows])
+
+
 def block2d(obstacles):
     """The 6 x 2 steel block [0, 1] x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its bottom
     (one pair each)."""

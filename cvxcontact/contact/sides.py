@@ -26,8 +26,8 @@ def pair_sides(stack, i: int) -> list[tuple[int, str]]:
 
 def held_sides(stack, pairs: Iterable[int] | None = None) -> dict[tuple[int, str], list[tuple[int, int]]]:
     """{side: [(pair index, slot)]}: the pairs of ``stack`` that hold each side (slot 0: the pair's first body, 1:
-    its second), in pair order, the sides in the order the pairs first reach them. ``pairs``: the indices of the
-    pairs read, in their order (None: every pair)."""
+    its second), in the order read, the sides in the order the pairs first reach them. ``pairs``: the indices of
+    the pairs read, in their order (None: every pair, in pair order)."""
     held: dict = {}
     for i in range(len(stack.interfaces)) if pairs is None else pairs:
         for slot, side in enumerate(pair_sides(stack, i)):

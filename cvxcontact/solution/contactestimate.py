@@ -340,9 +340,8 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     int_S (|t_i|^2 - 2 t_i . (sigma_h n + lambda_i n)). On each S of a Signorini pair the complementarity and the
     penetration (and the friction terms: of the fields summed over the pairs that share its first side,
     :func:`_shared_friction`), shared by the cells of the sides that hold its centroid."""
-    bodies = list(sol.scene.bodies)
     Lq, wq = simplex_rule(2, 4)                       # lambda^2 of P2: degree 4
-    pairs = [_pair_fields3d(sol, i, cache, bodies) for i in range(len(sol.contacts))]
+    pairs = [_pair_fields3d(sol, i, cache) for i in range(len(sol.contacts))]
     holders = held_sides(sol.scene.stack)             # per side (k, part): [(pair, its side)]
     held = {key: [pairs[i]["sides"][slot] for i, slot in on] for key, on in holders.items()}   # its [_PairSide]
     last = {key: on[-1][0] for key, on in holders.items()}                                    # its last pair
@@ -462,7 +461,7 @@ def _side_gap_terms(group, cache, N, wq):
     return [(side.key[0], on.cell[on.face_of(held)])], {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
 
 
-def _pair_fields3d(sol, i, cache, bodies) -> dict:
+def _pair_fields3d(sol, i, cache) -> dict:
     """Pair ``i`` of a 3D ``sol`` as the contact terms read it: its line ``itf``, the elements of X_h
     (``elements``, ``corners``, ``hosts``: :meth:`elements`), g - [u_nu] (``open``) and lambda_h (``lam``) at their
     nodes (last: 0), a friction law's ``fr`` (or None) and a :class:`_PairSide` per side (``sides``)."""
@@ -470,18 +469,18 @@ def _pair_fields3d(sol, i, cache, bodies) -> dict:
     elements, corners, hosts = itf.elements()     # (e, 3 | 6) nodes of X_h (-1: outside it), (e, 3, 2) m
     gap = np.zeros(len(c.lam)) if c.gap is None else np.asarray(c.gap, dtype=float)
     open_ = np.append(gap - np.asarray(c.jump, dtype=float), 0.0)[elements]              # g - [u_nu] at their nodes
-    first = getattr(itf.traces[0], "linear", itf.traces[0])              # P2: its P1 trace (the same faces)
-    k0 = next(j for j, b in enumerate(bodies) if b is first.body)
-    lam = np.append(cache[k0].multiplier(c, first.part), 0.0)
+    keys = pair_sides(sol.scene.stack, i)                               # its sides (k, part), first body's first
+    k0, part0 = keys[0]
+    lam = np.append(cache[k0].multiplier(c, part0), 0.0)
     fr = slip.friction_of(sol, i)                                      # a friction law's t_h, else None
     nodal = {"lam": lam}
     if fr is not None:
-        fr = cache[k0].friction(fr, c, first.part)
+        fr = cache[k0].friction(fr, c, part0)
         frames = row_frames(itf)
         nodal.update(t=slip.nodal_vectors(fr.t, frames), s=slip.nodal_vectors(fr.s, frames),
                      r=slip.nodal_vectors(fr.r, frames), g=np.append(np.asarray(fr.g, dtype=float), 0.0))
     sides = []
-    for side, (trace, key) in enumerate(zip(itf.traces, pair_sides(sol.scene.stack, i))):
+    for side, (trace, key) in enumerate(zip(itf.traces, keys)):
         linear = getattr(trace, "linear", trace)                      # P2: its P1 trace (the same faces)
         sign = 1 - 2 * side                                            # the first body's t_h, the other's -t_h
         signed = {name: sign * v if name in _SIGNED else v for name, v in nodal.items()}

@@ -38,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from ..contact.sides import pair_sides
 from .solution import pair_label
 
 __all__ = ["MAX_ASPECT", "MIN_CELLS", "aspect_ratios", "rowless", "unresolved", "zone_cells"]
@@ -208,7 +209,7 @@ def unresolved(sol) -> list[str]:
     zones_of = _zones_2d if dim == 2 else _zones_3d
     out = []
     for i, pair in enumerate(sol.scene.contacts):
-        sides = [(pair.body_a, pair.part_a)] + ([] if pair.rigid else [(pair.other, pair.part_b)])
+        sides = [(sol.scene.bodies[k], part) for k, part in pair_sides(sol.scene.stack, i)]
         condition = sol.scene.conditions[i] or sol.condition
         merged = np.asarray(sol.contacts[i].x, dtype=float)
         itf = sol._pair_line(i)

@@ -18,7 +18,12 @@ import scipy.sparse as sp
 from reach_scenes import block2d, block3d, line, lowered, raised, strip
 
 import cvxcontact as cc
-from cvxcontact.backends.parallel import closed_once, looser_rows, repeated_rows
+from cvxcontact.backends.parallel import (
+    closed_once,
+    looser_rows,
+    normalised_gaps,
+    repeated_rows,
+)
 
 pytestmark = [pytest.mark.numerics,    # re-run under every OpenBLAS kernel set by .ci/run
               pytest.mark.filterwarnings("ignore::cvxcontact.ResolutionWarning")]   # a 3 x 3 box's faces
@@ -143,3 +148,17 @@ def test_repeated_rows_by_hand():
     # an infinite gap repeats nothing, and sets no scale for the others' (1 and 1 + 1e-6: not equal)
     assert repeated_rows(sp.csr_matrix(np.ones((3, 1))), np.array([np.inf, 1.0, 1.0 + 1e-6])).tolist() == [0, 1, 2]
 
+
+def test_closed_once_keeps_the_tightest_row_of_a_class():
+    """A class's gaps agree only to PARALLEL_TOL of the largest normalised gap (here 1e3: rows 0 and 1, equal, of
+    gaps 1 + 1e-10 and 1, are one class): of its active rows the tightest is closed (row 1), so the looser one
+    left open is feasible (slack -1e-10), not the tighter one penetrated by 1e-10 (h-full2 kept the first, row
+    0); of equal gaps the first, as before."""
+    G = sp.csr_matrix(np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0], [2.0, 0.0], [2.0, 0.0]]))
+    g = np.array([1.0 + 1e-10, 1.0, 1e3, 4.0, 4.0])
+    first = repeated_rows(G, g)
+    assert first.tolist() == [0, 0, 2, 3, 3]
+    assert closed_once(first, np.ones(5, dtype=bool), normalised_gaps(G, g)).tolist() == [False, True, True, True,
+                                                                                          False]
+    assert closed_once(first, np.array([1, 0, 1, 1, 1], dtype=bool), normalised_gaps(G, g)).tolist() == [
+        True, False, True, True, False]                     # the looser row alone active: it is closed

@@ -29,7 +29,7 @@ from .factor import (
     structurally_nonsingular,
 )
 from .factor import lu as dense_or_sparse_lu
-from .parallel import closed_once, repeated_rows
+from .parallel import closed_once, normalised_gaps, repeated_rows
 
 __all__ = [
     "ContactModel",
@@ -293,9 +293,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
     None); without, such a set is singular (the cones' finish then turns to the tangency points, §18).
 
     Rows that repeat each other (:func:`~cvxcontact.backends.parallel.repeated_rows`: coincident obstacles, the
-    same row of E [u_nu] with the same gap) are one equation: of those ``active`` closes, the first is closed and
-    carries their force, the others get force 0 and its slack (:func:`~cvxcontact.backends.parallel.closed_once`;
-    closed together, (26) would be singular: the split of the force between them is not determined, its sum is).
+    same row of E [u_nu] with the same gap) are one equation: of those ``active`` closes, the tightest (ties: the
+    first) is closed and carries their force, the others get force 0 and its slack
+    (:func:`~cvxcontact.backends.parallel.closed_once`; closed together, (26) would be singular: the split of the
+    force between them is not determined, its sum is).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
@@ -314,10 +315,11 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
     held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
     # a row repeated (coincident obstacles at a node) is closed once; its classes found at the first solve (many
     # callers read only kkt.matrix / kkt.rows)
-    repeats = functools.cache(lambda: repeated_rows(G_all, g))
+    repeats = functools.cache(lambda: (repeated_rows(G_all, g), normalised_gaps(G_all, g)))
 
     def kkt(active):
-        active = closed_once(repeats(), active)
+        first, gap = repeats()
+        active = closed_once(first, active, gap)
         G, b = G_all[active], np.concatenate([rhs, g[active]])
         n, start = A.shape[0], A.shape[0] - sum(widths)
         for (R, F), w, h in zip(translations or (), widths, held):

@@ -156,8 +156,8 @@ def test_p2_runs_one_closed_one_open():
     the pairs' lambda_h summed is the one floor's (uniform, an independent problem of the same answer) and the open
     pair's lambda_h is 0 where it is open, but at the floor's run's first vertex x = 1/3: the floor's function
     cannot reach the segment left of it, so the other run keeps that node's value. Before (each pair's own
-    multiplier where one was closed and one open at a node) the sum ran from -1.2 p to 2.4 p (p the floor's) and
-    the contact traction was 0.034 of norm^2."""
+    multiplier where one was closed and one open at a node) the sum ran from 0.79 p to 2.2 p (p the floor's;
+    each pair's -0.21 p to 2.4 p) and the contact traction was 0.034 of norm^2."""
     sol = cc.solve(block2d((line(0.3, 2.0), lowered(-1.0, 0.6, 2, kink=0.3))), "sigma1", degree=2)
     one = cc.solve(block2d((line(-1.0, 2.0),)), "sigma1", degree=2)
     assert sol.ok and one.ok

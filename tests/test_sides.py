@@ -137,8 +137,7 @@ def test_obstacle_open_at_a_node_takes_no_share_of_it(dim, degree):
     reach the nodes 0.3 <= x < 0.6, where the floor is closed and the other open (by 3.3e-7 m and more; no node
     closed for both, so no dependent rows). There the open pair's lambda_h is 0 (the node's share goes to the
     floor), and the sum is the side's (contact traction 0, as on one floor). Shared by the number of pairs reaching
-    each node it read p / 2 there (contact traction 0 too). 2D P2 pairs, which share by runs, read their own
-    multipliers where one pair is closed at a node and another open (as before the read once)."""
+    each node it read p / 2 there (contact traction 0 too). 2D P2: :func:`test_p2_runs_one_closed_one_open`."""
     block, floor = SCENES[dim]
     sol = cc.solve(block((floor(0.3, 2.0), lowered(-1.0, 0.6, dim, kink=0.3))), "sigma1", degree=degree)
     c = sol.contacts[1]
@@ -148,6 +147,34 @@ def test_obstacle_open_at_a_node_takes_no_share_of_it(dim, degree):
     assert np.abs(c.lam[opened]).max() <= 1e-12 * np.abs(sol.contacts[0].lam).max()
     est = sol.estimate
     # measured |contact traction| <= 1.2e-16 of norm^2 (5 kernel sets)
+    assert abs(est.parts["contact traction"]) <= 1e-12 * est.norm ** 2
+
+
+def test_p2_runs_one_closed_one_open():
+    """2D P2, the scene of :func:`test_obstacle_open_at_a_node_takes_no_share_of_it`: the runs share by segments,
+    and of the runs holding a node's segments those closed there take its share (``QuadraticInterface.shares``):
+    the pairs' lambda_h summed is the one floor's (uniform, an independent problem of the same answer) and the open
+    pair's lambda_h is 0 where it is open, but at the floor's run's first vertex x = 1/3: the floor's function
+    cannot reach the segment left of it, so the other run keeps that node's value. Before (each pair's own
+    multiplier where one was closed and one open at a node) the sum ran from 0.79 p to 2.2 p (p the floor's;
+    each pair's -0.21 p to 2.4 p) and the contact traction was 0.034 of norm^2."""
+    sol = cc.solve(block2d((line(0.3, 2.0), lowered(-1.0, 0.6, 2, kink=0.3))), "sigma1", degree=2)
+    one = cc.solve(block2d((line(-1.0, 2.0),)), "sigma1", degree=2)
+    assert sol.ok and one.ok
+    at = {tuple(np.round(p, 9)): i for i, p in enumerate(one.contacts[0].points)}
+    total = np.zeros(len(at))
+    for c in sol.contacts:
+        np.add.at(total, [at[tuple(np.round(p, 9))] for p in c.points], c.lam)
+    ref = np.abs(one.contacts[0].lam).max()
+    # measured 0 (5 kernel sets)
+    assert np.abs(total - one.contacts[0].lam).max() <= 1e-12 * ref
+    c = sol.contacts[1]
+    opened = (np.asarray(c.gap) - np.asarray(c.jump) > 1e-3 * DELTA) & (np.asarray(c.points)[:, 0] > 0.34)
+    assert opened.any()
+    # measured 0 (5 kernel sets)
+    assert np.abs(c.lam[opened]).max() <= 1e-12 * ref
+    est = sol.estimate
+    # measured |contact traction| 1.8e-31 to 2.1e-31 of norm^2 (5 kernel sets)
     assert abs(est.parts["contact traction"]) <= 1e-12 * est.norm ** 2
 
 

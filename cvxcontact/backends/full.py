@@ -29,7 +29,7 @@ from .factor import (
     structurally_nonsingular,
 )
 from .factor import lu as dense_or_sparse_lu
-from .parallel import closed_once, repeated_rows
+from .parallel import closed_once, normalised_gaps, repeated_rows
 
 __all__ = [
     "ContactModel",
@@ -272,6 +272,19 @@ def _unseen(R, F, active, hold):
     return V.T, V.T @ np.asarray(hold, dtype=float)
 
 
+def _closing_once(G_all, g):
+    """``active -> the rows closed``: each class of repeated rows of G_all (coincident obstacles at a node) closed
+    once (:func:`~cvxcontact.backends.parallel.closed_once`), its classes found at the first solve (many callers of
+    :func:`mixed_kkt` read only ``kkt.matrix`` / ``kkt.rows``)."""
+    repeats = functools.cache(lambda: (repeated_rows(G_all, g), normalised_gaps(G_all, g)))
+
+    def once(active):
+        first, gap = repeats()
+        return closed_once(first, active, gap)
+
+    return once
+
+
 def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None, hold=None):
     """``kkt(active)`` for the exact finish of the full model: the sparse mixed system (26)
 
@@ -293,9 +306,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
     None); without, such a set is singular (the cones' finish then turns to the tangency points, §18).
 
     Rows that repeat each other (:func:`~cvxcontact.backends.parallel.repeated_rows`: coincident obstacles, the
-    same row of E [u_nu] with the same gap) are one equation: of those ``active`` closes, the first is closed and
-    carries their force, the others get force 0 and its slack (:func:`~cvxcontact.backends.parallel.closed_once`;
-    closed together, (26) would be singular: the split of the force between them is not determined, its sum is).
+    same row of E [u_nu] with the same gap) are one equation: of those ``active`` closes, the tightest (ties: the
+    first) is closed and carries their force, the others get force 0 and its slack
+    (:func:`~cvxcontact.backends.parallel.closed_once`; closed together, (26) would be singular: the split of the
+    force between them is not determined, its sum is).
     """
     if rows is not None or load is not None:
         return mixed_kkt_rows(blocks, E, g, rows, bound, load, translations=translations)
@@ -312,12 +326,10 @@ def mixed_kkt(blocks, E, g, rows=None, bound=None, load=None, translations=None,
         G_all = sp.hstack([G_all, *(sp.csr_matrix(R) for R, _ in translations)]).tocsr()
 
     held = [] if hold is None else [np.asarray(h, dtype=float) for h in hold]
-    # a row repeated (coincident obstacles at a node) is closed once; its classes found at the first solve (many
-    # callers read only kkt.matrix / kkt.rows)
-    repeats = functools.cache(lambda: repeated_rows(G_all, g))
+    once = _closing_once(G_all, g)
 
     def kkt(active):
-        active = closed_once(repeats(), active)
+        active = once(active)
         G, b = G_all[active], np.concatenate([rhs, g[active]])
         n, start = A.shape[0], A.shape[0] - sum(widths)
         for (R, F), w, h in zip(translations or (), widths, held):
@@ -369,8 +381,8 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None, translations=None):
 
     (a row on phi acts on the momentum through the coupling: phi = Kpp^-1 (q + Kup^T u)). The
     active contact rows and active extra rows are closed (E [u_nu] = g, C x = d); the extra rows
-    are normalised to unit norm inside the solve. Returns ((u, phi, y, z), slack, row_slack) or None
-    if the system is singular.
+    are normalised to unit norm inside the solve; contact rows that repeat each other are closed once, as in
+    :func:`mixed_kkt`. Returns ((u, phi, y, z), slack, row_slack) or None if the system is singular.
 
     ``translations`` (as in :class:`ContactModel`): the unknowns tau of force-controlled obstacles join x
     after the bodies' dofs (x = [u_1; phi_1; ...; tau_1; ...], so C has columns for them), with no
@@ -417,7 +429,10 @@ def mixed_kkt_rows(blocks, E, g, C=None, d=None, load=None, translations=None):
     Kw = sp.block_diag(kpp).tocsr() if kpp else sp.csr_matrix((0, 0))
     Mu = sp.diags(mu)
 
+    once = _closing_once(G_all, g)
+
     def kkt(active, active_rows):
+        active = once(active)
         Ga, Ca = G_all[active], Cn[active_rows]
         K = sp.bmat([[A, Lw, Ga.T, Mu @ Ca.T],
                      [None, Kw, None, -(Rw @ Ca.T)],

@@ -13,7 +13,7 @@ import scipy.sparse as sp
 
 from ..errors import locked
 
-__all__ = ["PARALLEL_TOL", "ParallelRows", "closed_once", "looser_rows", "repeated_rows"]
+__all__ = ["PARALLEL_TOL", "ParallelRows", "closed_once", "looser_rows", "normalised_gaps", "repeated_rows"]
 
 PARALLEL_TOL = 1e-12
 """Two contact rows are parallel (:func:`looser_rows`) where their unit rows (each row of G over its 2-norm) agree to
@@ -22,13 +22,26 @@ parallel rows repeat each other (:func:`repeated_rows`) where their normalised g
 the largest |g_a| / |G_a|."""
 
 
+def _row_norms(G) -> np.ndarray:
+    """The 2-norm of each row of the sparse G."""
+    G = sp.csr_matrix(G)
+    return np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+
+
+def normalised_gaps(G, g) -> np.ndarray:
+    """g_a / |G_a| per contact row (|G_a| the row's 2-norm; g_a itself for a row of no entry): the distance, in the
+    unknowns' units, a row's gap stands for, which orders parallel rows (tightest first)."""
+    norms = _row_norms(G)
+    return np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
+
+
 def _parallel(G, g):
     """(order, U, gap): per set of rows of one sparsity pattern (the only candidates for parallel rows), its rows
     sorted by normalised gap (ties by index) and their unit rows; ``gap`` the normalised gaps g_a / |G_a|."""
     G = sp.csr_matrix(G, copy=True)
     G.eliminate_zeros()
     G.sort_indices()
-    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+    norms = _row_norms(G)
     gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
     nnz = np.diff(G.indptr)
     at = np.repeat(np.arange(G.shape[0]), nnz)
@@ -174,14 +187,19 @@ def repeated_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     return first
 
 
-def closed_once(first: np.ndarray, active: np.ndarray) -> np.ndarray:
+def closed_once(first: np.ndarray, active: np.ndarray, gap: np.ndarray | None = None) -> np.ndarray:
     """The rows of ``active`` (bool per row) closed in a solve: of each class of repeated rows (``first``, from
-    :func:`repeated_rows`) the first active one; the others are the same equation (their force 0, their slack
-    that of the row kept)."""
+    :func:`repeated_rows`) one active row, the tightest (``gap``: :func:`normalised_gaps`; ties, or without it,
+    the first); the others are the same equation (their force 0, their slack that of the row kept). The
+    tightest, because a class's gaps agree only to the tolerance of :func:`repeated_rows` (relative to the
+    largest gap): closing a looser row would leave a tighter one penetrated by their difference, while a looser
+    row left open beside the tighter one closed is feasible (its slack that difference, <= 0)."""
     keep = np.asarray(active, dtype=bool).copy()
     at = np.flatnonzero(keep & (np.bincount(first, minlength=len(first))[first] > 1))   # active, in a class
     if len(at):
-        _, kept = np.unique(first[at], return_index=True)      # at ascending: each class's first active row
+        if gap is not None:                                     # tightest first within a class, ties by index
+            at = at[np.lexsort((at, np.asarray(gap, dtype=float)[at]))]
+        _, kept = np.unique(first[at], return_index=True)      # each class's first row in that order
         keep[at] = False
         keep[at[kept]] = True
     return keep

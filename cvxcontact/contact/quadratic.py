@@ -235,19 +235,28 @@ class QuadraticInterface:
         return type(self)(self.linear.reaching(vertices), self.nodes, self.members)
 
     @staticmethod
-    def shares(selections) -> list[np.ndarray]:
+    def shares(selections, closed=None) -> list[np.ndarray]:
         """Per obstacle pair on one part (``selections``: each one's 0/1 (size_i, trace nodes), one run from vertex
         to vertex), the share of each trace node's lambda_h in its values. Its function lives on its run's
         segments alone, so on each segment the shares of the runs holding it sum to 1: a node inside C runs 1 / C
         for them (a midpoint is inside every run holding its segment) and 0 for the runs that end or start there;
-        a vertex inside none 1 / A for the A runs ending there and 1 / B for the B starting there."""
+        a vertex inside none 1 / A for the A runs ending there and 1 / B for the B starting there. ``closed`` (per
+        pair, 1 per trace node where its contact is closed, or None): of the runs holding the same segments at a
+        node (inside; ending; starting) those closed there take its share, one over their number, where one is
+        (an obstacle open at a node, its force 0, takes none; the sums per segment kept): a floor open under a
+        strip raised above it leaves the strip's nodes to the strip, as on P1 and 3D P2 faces."""
         j = np.arange(selections[0].shape[1])
         held = [np.flatnonzero(np.asarray(abs(s).sum(axis=0)).ravel() > 0.5) for s in selections]
         lo, hi = (np.array([h[k] for h in held])[:, None] for k in (0, -1))
         inside, ends, starts = (lo < j) & (j < hi), (hi == j) & (lo < j), (lo == j) & (hi > j)
-        C, A, B = (np.maximum(m.sum(axis=0), 1) for m in (inside, ends, starts))
         alone = inside.sum(axis=0) == 0
-        return list(inside / C + (ends & alone) / A + (starts & alone) / B)
+        groups = (inside, ends & alone, starts & alone)
+        if closed is None:
+            return list(sum(m / np.maximum(m.sum(axis=0), 1) for m in groups))
+        on = np.array([np.asarray(c, dtype=float) > 0.5 for c in closed])
+        # per group at each node: the closed runs of it, where it has one, else all of it
+        share = [np.where((m & on).any(axis=0), m & on, m) for m in groups]
+        return list(sum(m / np.maximum(m.sum(axis=0), 1) for m in share))
 
     def support(self, values) -> tuple[np.ndarray, np.ndarray]:
         """(abscissae s (m), nodal values): the line on which the P2 function of X_h with nodal ``values`` lives,

@@ -16,8 +16,10 @@ sum over the pairs of a side is the body's force there, fixed by its balance. Tw
   pairs reaching the node (of those whose contact is closed there, where one is: an obstacle open at a node,
   its force 0, takes no share of the floor's lambda_h, which its complementarity would charge on its open gap);
   a 2D P2 pair's function lives on its run alone, so the shares are the run's (``shares`` of the union: on each
-  segment the runs holding it sum to 1; where one pair is closed at a node and another open, each pair keeps its
-  own ``multiplier``). A pair closed nowhere (never touched) reads its own, 0.
+  segment the runs holding it sum to 1, and of the runs holding the same segments at a node those closed there take
+  its share, ``shares(S, closed)``: a floor open under a strip raised above it leaves the strip's nodes to the
+  strip; the floor keeps a node where the strip's run starts, which the strip's function cannot reach from the
+  other side). A pair closed nowhere (never touched) reads its own, 0.
 - two-body pairs of planar surfaces (3D) sharing a side (a body on several bodies): lambda_h in X_h of the
   group, the functions of every side on the pairs' nodes stacked (one column block per side, a shared side's
   functions read by each of its pairs), the pairs' masses block diagonal, the Riesz representer of the stacked
@@ -90,11 +92,9 @@ def _obstacles(pairs, forces, closed=None):
         return None
     shares = getattr(union, "shares", None)
     on = None if closed is None else [s.T @ c.astype(float) for s, c in zip(S, closed)]   # 1: closed there
-    if on is not None and shares is not None and ((count > 1) & (sum(on) > 0) & (sum(on) < count)).any():
-        return None              # 2D P2 runs share by segments, not by node: one closed and one open pair at a node
     U = _selection(union)
     full = U.T @ union.multiplier(U @ f)
-    weights = shares(S) if shares else [1.0 / np.maximum(count, 1.0)] * len(S)
+    weights = shares(S, on) if shares else [1.0 / np.maximum(count, 1.0)] * len(S)
     if on is not None and shares is None:            # an obstacle open at a node carries no share of it
         n_on = sum(on)
         weights = [np.where(n_on > 0, o / np.maximum(n_on, 1.0), w) for o, w in zip(on, weights)]

@@ -31,9 +31,11 @@ class ContactResult:
 
     ``lam`` is lambda_h (Pa), ``jump`` is [u_h nu] (m), ``force`` the equivalent nodal
     force E^T y (N/m), ``constrained`` marks the nodes where non-penetration is imposed
-    and ``active`` those among them that carry a positive force (the nodal rows: the rows the finish closes;
-    a normal-compliance law: the rows whose law presses); ``line`` is the ordinate of Gamma_3 (m), ``gap`` the
-    initial gap g at the nodes (m).
+    and ``active`` those among them where the contact is closed (the nodal rows: the rows the finish closes,
+    each with a force >= 0, which may be 0: a row closed without pressing, or one of rows that repeat each other
+    at a node, coincident obstacles, whose force one of them carries,
+    :func:`~cvxcontact.backends.parallel.closed_once`; a normal-compliance law: the rows whose law presses);
+    ``line`` is the ordinate of Gamma_3 (m), ``gap`` the initial gap g at the nodes (m).
 
     Under the P2 "everywhere" cones (2D segments, 3D copositive triangles) ``active`` is a function of the
     displacement: every node of the elements (merged segments, overlay triangles) where [u_h nu] - g reaches 0

@@ -33,8 +33,10 @@ Parts of one case:
     system with its constraints eliminated exactly (each row solved for its own dof, the dof of largest
     coefficient, which no other row touches: sigma1 and rigid obstacles; not gamma3), setup + solve.
     Its answer is checked against PARDISO's (``amg_vs_pardiso``, max |a - b| / max |b| of x).
-  ``bonded_s`` is the faster of the two. ``solver_build_cpu_s`` (both parts): the CPU seconds of the
-  ContactSolver's construction (the assembly; after a first small one for the imports). Not in either
+  ``bonded_s`` is the faster of the two. ``solver_build_cpu_s`` (default part) and
+  ``bonded_solver_build_cpu_s`` (bonded part; one key for both let the bonded part's overwrite the default's in
+  the merged row): the CPU seconds of the ContactSolver's construction (the assembly; after a first small one
+  for the imports). Not in either
   yardstick's seconds: the bonded system's assembly (``bonded_build_s``, CPU ``bonded_build_cpu_s``) and the
   AMG yardstick's elimination (``amg_reduce_s``, CPU ``amg_reduce_cpu_s``).
 
@@ -62,8 +64,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))          # this che
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))  # scenes3d: the scenes
 sys.path.insert(0, str(Path(__file__).resolve().parent))              # harness
 
-from harness import (amg_bonded, bonded_system, cell, growth, load, markdown_table, median_row,  # noqa: E402
-                     pardiso_symmetric, peak_gb, rel, residual, run_part, side_cells, unknowns, write_csv)
+from harness import (StageTimes, amg_bonded, bonded_system, cell, growth, load, markdown_table,  # noqa: E402
+                     median_row, pardiso_symmetric, peak_gb, rel, residual, run_part, side_cells, unknowns,
+                     write_csv)
 
 SCENES = ("two_boxes", "sphere")
 
@@ -82,10 +85,39 @@ def make(scene, n, condition, elastic):
 
 # ------------------------------------------------------------------------------------------------ default
 
-def default_part(scene, n, condition, elastic, runs):
+def cpu_stages() -> StageTimes:
+    """Inclusive CPU timers (harness.StageTimes) on the AMG route's stages and the read-back (``--cpu-stages``:
+    the solve's stage split in CPU seconds, ``sol.timings`` being wall seconds); the route's CG / GMRES calls
+    inside the active-set steps are its Krylov solves, V-cycles and products included."""
+    import importlib
+
+    import scipy.sparse.linalg as spla
+
+    from cvxcontact.backends import amg
+
+    solve_module = importlib.import_module("cvxcontact.solve")      # the module (cc.solve is the function)
+
+    st = StageTimes()
+    kc = amg.KrylovContact
+    for name, label in (("__init__", "KrylovContact built (S stacked, own dofs)"),
+                        ("solve", "active-set steps (KrylovContact.solve)"),
+                        ("_system", "  one set's solve (_system)"),
+                        ("_reduced", "    the set's operator (_reduced)"),
+                        ("_diagonal_blocks", "    K's diagonal blocks for the set-up"),
+                        ("_hierarchy", "    hierarchy set-up (pyamg)"),
+                        ("_precondition", "    the set's preconditioner")):
+        st.wrap(kc, name, label)
+    st.wrap(spla, "cg", "    Krylov solves (CG)")
+    st.wrap(amg, "gmres", "    Krylov solves (GMRES)")
+    st.wrap(solve_module.ContactSolver, "_read", "read-back, checks, estimate")
+    return st
+
+
+def default_part(scene, n, condition, elastic, runs, stages=False):
     import cvxcontact as cc
 
     cc.solve(make(scene, 4, condition, elastic))                        # imports, first-call set-up
+    st = cpu_stages() if stages else None
     rows = []
     for _ in range(runs):
         sc = make(scene, n, condition, elastic)
@@ -110,6 +142,8 @@ def default_part(scene, n, condition, elastic, runs):
                          **{f"res_{k}": float(v) for k, v in sol.residuals().items()}))
         N, m = unknowns(solver.problem), int(solver.problem.E.shape[0])
         del solver, sol
+    if st is not None:       # summed over the runs: per run
+        rows[0]["cpu_stages"] = {label: [calls / runs, inc / runs] for label, (calls, inc, _) in st.acc.items()}
     out = median_row(rows)
     out.update(unknowns=N, contact_rows=m, default_peak_gb=peak_gb())
     return out
@@ -130,7 +164,8 @@ def bonded_part(scene, n, condition, elastic, runs, pardiso=True):
     t0, c0 = time.perf_counter(), time.process_time()
     K, rhs, A, G, sizes = bonded_system(problem)
     nan = float("nan")
-    out = dict(kkt_size=int(K.shape[0]), bonded_build_s=time.perf_counter() - t0, solver_build_cpu_s=build_cpu,
+    out = dict(kkt_size=int(K.shape[0]), bonded_build_s=time.perf_counter() - t0,
+               bonded_solver_build_cpu_s=build_cpu,
                bonded_build_cpu_s=time.process_time() - c0, amg_s=nan, amg_cpu_s=nan,
                amg_iterations=-1, amg_reduce_s=nan, amg_reduce_cpu_s=nan, amg_vs_pardiso=nan, amg_residual=nan, pardiso_s=nan,
                pardiso_cpu_s=nan)
@@ -158,12 +193,12 @@ def bonded_part(scene, n, condition, elastic, runs, pardiso=True):
     return out
 
 
-def case(scene, size, condition, elastic, runs, parts, pardiso_up_to=float("inf")):
+def case(scene, size, condition, elastic, runs, parts, pardiso_up_to=float("inf"), stages=False):
     n = cells(scene, size, elastic)
     row = dict(scene=scene, n=n, condition=condition, elastic=elastic or scene == "sphere", load=load())
     a = dict(scene=scene, n=n, condition=condition, elastic=elastic, runs=runs)
     if "default" in parts:
-        row.update(run_part(__file__, dict(a, part="default")))
+        row.update(run_part(__file__, dict(a, part="default", stages=stages)))
     if "bonded" in parts:
         row.update(run_part(__file__, dict(a, part="bonded", pardiso=bool(size <= pardiso_up_to))))
     nan = float("nan")
@@ -229,21 +264,27 @@ def main():
     p.add_argument("--csv", default=str(Path(__file__).with_name("results") / "bench3d.csv"))
     p.add_argument("--md", help="also write the table as Markdown to this file")
     p.add_argument("--append", action="store_true", help="append to the CSV instead of replacing it")
+    p.add_argument("--cpu-stages", action="store_true",
+                   help="the default solve's stages in CPU seconds (printed; the CSV's cpu_stages column)")
     p.add_argument("--one", help=argparse.SUPPRESS)
     args = p.parse_args()
     if args.one:
         a = json.loads(args.one)
         if a["part"] == "default":
-            print(json.dumps(default_part(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"])))
+            print(json.dumps(default_part(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"],
+                                          a.get("stages", False))))
         else:
             print(json.dumps(bonded_part(a["scene"], a["n"], a["condition"], a["elastic"], a["runs"], a["pardiso"])))
         return
     rows = []
     for scene in args.scenes:
         for size in args.sizes:
-            r = case(scene, size, args.condition, args.elastic, args.runs, args.parts, args.pardiso_up_to)
+            r = case(scene, size, args.condition, args.elastic, args.runs, args.parts, args.pardiso_up_to,
+                     args.cpu_stages)
             rows.append(r)
             print(summary(r), flush=True)
+            for label, (calls, inc) in r.get("cpu_stages", {}).items():
+                print(f"    CPU {label:44s} calls {calls:6.1f}  inclusive {inc:9.2f} s", flush=True)
     for line in growth_lines(rows):
         print(line)
     print("wrote", write_csv(args.csv, rows, append=args.append))

@@ -1,7 +1,7 @@
 """Benchmark: the peak memory of a large 3D solve line by line, and what stays held, in one fresh process.
 
 The default solve of ``two_boxes`` (tests/scenes3d.py, PZT-5A on aluminium, "sigma1", P1: the scene of
-benchmarks/bench3d.py) from the meshes to the checked Solution. A thread samples the resident memory
+benchmarks/bench3d.py; ``--elastic``: both boxes aluminium, as bench3d.py's ``--elastic``) from the meshes to the checked Solution. A thread samples the resident memory
 (``/proc/self/statm``) every 10 ms and keeps, for each innermost package line on the main thread's stack, the
 highest sample seen there: the lines where the peak sits. Each stage prints its CPU seconds, the resident MB
 after it and its peak; the end prints the bytes of the arrays held by each part of the ContactSolver and the
@@ -9,7 +9,7 @@ Solution (``held``: numpy arrays and scipy sparse matrices reachable from it, ea
 resident MB after ``malloc_trim`` (what the heap holds freed but not returned).
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/bench3d_memory.py \
-        --size 1e6 [--checkout DIR] [--top 12]
+        --size 1e6 [--elastic] [--checkout DIR] [--top 12]
 
 ``--checkout``: import cvxcontact from another checkout (a before/after comparison). KB per unknown are
 ``ru_maxrss`` (KiB) over the unknowns, with and without the interpreter-and-imports baseline (the resident
@@ -94,7 +94,7 @@ def held(obj, seen=None) -> int:
     return total
 
 
-def one(size: float, checkout: str, top: int, save: str | None = None) -> None:
+def one(size: float, checkout: str, top: int, save: str | None = None, elastic: bool = False) -> None:
     sys.path[:0] = [str(HERE.parent / "tests"), str(HERE)]
     from bench3d import cells
     from harness import resident_mb, unknowns
@@ -104,10 +104,10 @@ def one(size: float, checkout: str, top: int, save: str | None = None) -> None:
 
     import cvxcontact as cc
 
-    cc.solve(two_boxes(4))                                           # imports, first-call set-up
+    cc.solve(two_boxes(4, "sigma1", elastic))                        # imports, first-call set-up
     base = resident_mb()
     lines = LinePeaks()
-    n = cells("two_boxes", size, False)
+    n = cells("two_boxes", size, elastic)
     clock = [time.process_time()]
 
     def stage(name, make):
@@ -120,7 +120,7 @@ def one(size: float, checkout: str, top: int, save: str | None = None) -> None:
         clock[0] = time.process_time()
         return value
 
-    scene = stage("scene (meshes, bodies, overlay)", lambda: two_boxes(n, "sigma1", False))
+    scene = stage("scene (meshes, bodies, overlay)", lambda: two_boxes(n, "sigma1", elastic))
     solver = stage("ContactSolver build", lambda: cc.ContactSolver(scene, "sigma1"))
     sol = stage("solve", lambda: solver.solve())
     N = unknowns(solver.problem)
@@ -161,8 +161,9 @@ def main():
     p.add_argument("--checkout", default=str(HERE.parent))
     p.add_argument("--top", type=int, default=12)
     p.add_argument("--save", help="write u and phi of every body (a .npy file: a before/after comparison)")
+    p.add_argument("--elastic", action="store_true", help="two_boxes: an aluminium upper box (no potentials)")
     args = p.parse_args()
-    one(args.size, args.checkout, args.top, args.save)
+    one(args.size, args.checkout, args.top, args.save, args.elastic)
 
 
 if __name__ == "__main__":

@@ -123,7 +123,7 @@ def amg_table(amg: list) -> list[str]:
             "| peak GB: run / AMG-CG | ok |")
     out = [head, "|" + "---|" * (head.count("|") - 1)]
     for n, s1, y, rs in amg:
-        ya, yc = y["solver_build_cpu_s"], y["amg_cpu_s"]
+        ya, yc = y["bonded_solver_build_cpu_s"], y["amg_cpu_s"]
         runs = [(f'"gamma3" ({name})', r["N"], r["route"], r["assembly_cpu"], r["solve_cpu"], r["peak_gb"], r["ok"])
                 for name, r in rs.items()]
         runs.append(('"sigma1"', runs[0][1], s1["route"], s1["solver_build_cpu_s"], s1["default_cpu_s"],

@@ -8,6 +8,8 @@ with gaps 3e-6 above the floor's; so m = 1.2 N for N nodes. Per size, ``--pairs`
 alternately (the order swapped every pair), each timing a fresh process: CPU seconds (``time.process_time``)
 of one call, the answers compared (the same bools).
 
+``--rows chained``: three obstacles at every node whose rows are chained within the tolerance (:func:`chained`).
+
 Run (one thread: the machine is shared):
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/looser_rows_ab.py \\
@@ -47,14 +49,29 @@ def rows(m: int, seed: int = 0):
     return G, g
 
 
-def one(tree: str, m: int) -> dict:
+def chained(m: int, seed: int = 0):
+    """(G, g): about ``m`` rows, three obstacles at each of N = m / 3 nodes, the second's and third's unit rows
+    0.6 and 1.2 PARALLEL_TOL (1e-12) from the first's in one entry: every node a chained cluster (the first and
+    third not within tol), the worst case of :meth:`ParallelRows.looser` (ordered row by row); random gaps."""
+    rng = np.random.default_rng(seed)
+    N = m // 3
+    normal = rng.standard_normal((N, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    vals = np.vstack([normal, normal + [0.6e-12, 0, 0], normal + [1.2e-12, 0, 0]])
+    nodes = np.tile(np.arange(N), 3)
+    G = sp.csr_matrix((vals.ravel(), (np.repeat(np.arange(3 * N), 3), (3 * nodes[:, None] + np.arange(3)).ravel())),
+                      shape=(3 * N, 3 * N))
+    return G, rng.uniform(0.0, 1e-5, 3 * N)
+
+
+def one(tree: str, m: int, kind: str = "strip") -> dict:
     """The CPU seconds of ``looser_rows`` of the checkout ``tree`` (and, where it has them, of ParallelRows and of
     its .looser) on :func:`rows` ``(m)``, and a digest of the answer."""
     sys.path.insert(0, tree)
     from cvxcontact.backends import signorini
 
     assert Path(signorini.__file__).resolve().is_relative_to(Path(tree).resolve()), signorini.__file__
-    G, g = rows(m)
+    G, g = rows(m) if kind == "strip" else chained(m)
     c0 = time.process_time()
     out = signorini.looser_rows(G, g)
     res = {"call": time.process_time() - c0, "looser": int(out.sum()),
@@ -75,10 +92,12 @@ def main() -> None:
     ap.add_argument("--base", required=True, help="the other checkout (its cvxcontact is imported)")
     ap.add_argument("--sizes", type=float, nargs="+", default=[1e4, 1e5, 1e6])
     ap.add_argument("--pairs", type=int, default=3)
+    ap.add_argument("--rows", choices=("strip", "chained"), default="strip",
+                    help="a floor and a strip (default) or three obstacles chained within tol at every node")
     ap.add_argument("--one", nargs=2, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
-        print(json.dumps(one(args.one[0], int(float(args.one[1])))))
+        print(json.dumps(one(args.one[0], int(float(args.one[1])), args.rows)))
         return
     trees = {"before": str(Path(args.base).resolve()), "after": str(HERE)}
     print("| rows | before: looser_rows CPU s | after: looser_rows | after: ParallelRows (once per geometry) | "
@@ -89,7 +108,8 @@ def main() -> None:
         runs = {k: [] for k in trees}
         for pair in range(args.pairs):
             for k in (list(trees) if pair % 2 == 0 else list(trees)[::-1]):
-                out = subprocess.run([sys.executable, __file__, "--base", args.base, "--one", trees[k], str(m)],
+                out = subprocess.run([sys.executable, __file__, "--base", args.base, "--rows", args.rows, "--one", trees[k],
+                                      str(m)],
                                      capture_output=True, text=True, check=True, cwd="/tmp")
                 runs[k].append(json.loads(out.stdout.strip().splitlines()[-1]))
 

@@ -153,6 +153,18 @@ def lowered(lo, hi, dim, drop=3e-6, kink=None):
                     sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
 
 
+def kinked(dim, kink=0.3, shift=0.0):
+    """The plane (2D: line) y = 0 (3D: z) up to x = ``kink``, then falling by 1e-5 per m, moved down by ``shift``
+    (m; < 0: up), its distance along the ray -y (-z): :func:`lowered` (``kink``) under the whole part, at x <=
+    kink one floor with the block under DELTA; two of them make rows of two obstacles at one node whose contact
+    zone the active-set steps find in several sets (gaps equal, ``shift`` 0, or apart by ``shift``)."""
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return x[:, dim - 1] + 1e-5 * np.maximum(0.0, x[:, 0] - kink) + shift
+    return cc.Rigid("kinked", distance, f"a floor falling by 1e-5 per m from x = {kink}, moved down by {shift}",
+                    sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
+
+
 STRIPS_LAWS = {"tresca": lambda: cc.Tresca(2 * P), "coulomb": lambda: cc.Coulomb(0.5)}
 """The laws that hold the layer of :func:`layer_on_strips_key` stuck."""
 

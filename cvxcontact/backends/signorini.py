@@ -254,18 +254,18 @@ def sparse(problem, cache, settings, timings) -> RawResult:
     if not settings.warm_start:
         first = cheap_start(problem, free)
         fresh_analysis(sc, free if first is None else first)
-    out = sc.solve(rhs, problem.g, cache.active & free) if warm else None
+    out = sc.solve(rhs, problem.g, cache.active & free, free=free) if warm else None
     start, coarse = cheap_start(problem, free), False
     if out is None and start is None and int(free.sum()) >= COARSE_ROWS:    # a long interface: from the
         start, coarse = sc.coarse_start(rhs, problem.g, free), True           # answer of its coarse rows
     if out is None and start is not None:                  # 3D: the rows the obstacles already close
-        out, warm = sc.solve(rhs, problem.g, start), False
+        out, warm = sc.solve(rhs, problem.g, start, free=free), False
     if out is None:                                        # first solve, or the previous set led nowhere
-        out = sc.solve(rhs, problem.g, free)               # from the bonded system of the rows that move
+        out = sc.solve(rhs, problem.g, free, free=free)    # from the bonded system of the rows that move
         warm = False
     if out is None and not coarse:                         # the bonded start led nowhere either: the coarse
         start = sc.coarse_start(rhs, problem.g, free)      # rows' answer, whatever the size
-        out = None if start is None else sc.solve(rhs, problem.g, start)
+        out = None if start is None else sc.solve(rhs, problem.g, start, free=free)
     if sc.factor_time > f0:
         timings["factorization"] = timings.get("factorization", 0.0) + sc.factor_time - f0
     timings["active_set"] = time.perf_counter() - t0 - (sc.factor_time - f0)

@@ -383,7 +383,7 @@ class SparseContact:
             if signs_hold(y, s, active, self.w, S):
                 self._predicted = active.tobytes()      # the columns say: the answer (:meth:`_system`)
                 return active
-            active = y * self.w + s > 0
+            active = (y * self.w + s > 0) & self._free
         return active
 
     def _last(self, active) -> bool:
@@ -433,9 +433,14 @@ class SparseContact:
                 z = z + dz
         return None
 
-    def solve(self, F, g, active=None, max_iter: int = 50):
+    def solve(self, F, g, active=None, max_iter: int = 50, free=None):
         """The Signorini problem for loads ``F`` (= [f_1; -q_1; ...], scaled) and gaps ``g`` (rows of E,
-        scaled) from the active set ``active`` (default: every row closed, the bonded system).
+        scaled) from the active set ``active`` (default: every row closed, the bonded system). ``free``: the rows
+        that may close (bool per row; default every row): every set the steps try stays within it, as the AMG
+        route's (``movable``), so that a row left open by its caller (a row no unknown moves, a row a tighter
+        parallel row implies: :func:`~cvxcontact.backends.parallel.looser_rows`) is not closed by a step whose
+        rounding gives it a slack > 0 (a looser row of a gap equal to its tight twin's to rounding has that
+        twin's slack; closed beside it, K(A) is singular and the steps split the node's force between them).
 
         Returns ``(u, phi, y, active, steps)`` (per-body lists as in
         :func:`~cvxcontact.backends.full.mixed_kkt`, y the row forces, ``steps`` the number of systems
@@ -448,6 +453,8 @@ class SparseContact:
         self._base_state, self._predicted = None, None
         n, m = self.n, self.m
         active = np.ones(m, dtype=bool) if active is None else np.asarray(active, dtype=bool).copy()
+        self._free = np.ones(m, dtype=bool) if free is None else np.asarray(free, dtype=bool)
+        active &= self._free
         visited = set()                                 # the sets solved exactly (the steps' cycle test)
         systems = 0                                     # the systems solved exactly, over every attempt
 
@@ -465,7 +472,7 @@ class SparseContact:
             S = np.maximum(S, 1e-14 * max(float(S.max(initial=0.0)), np.finfo(float).tiny))
             if signs_hold(y, s, active, self.w, S):
                 return (x, y), None
-            new = y * self.w + s > 0
+            new = (y * self.w + s > 0) & self._free
             settled = self._settle(new, S, visited) if settle else new    # the steps near the base on its columns
             return (x, y), (new if settled.tobytes() in visited else settled)
 

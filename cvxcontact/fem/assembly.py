@@ -40,8 +40,8 @@ from ..errors import SceneError
 from .simplex import element_load, simplex_rule
 
 __all__ = ["BodySystem", "NodePattern", "assemble", "assemble_loads", "assemble_matrices", "coefficients",
-           "constrained", "gradient_products", "gradient_rows", "gradients", "lifted", "points_strain",
-           "prolongation", "strain_matrix", "strain_points", "voigt_strain_rows", "voigt_strains"]
+           "constrained", "gradient_products", "gradients", "lifted", "points_strain", "prolongation",
+           "strain_matrix", "strain_points", "voigt_strains"]
 
 _GAUSS2 = 0.5 + np.array([-0.5, 0.5]) / np.sqrt(3.0)  # 2-point Gauss abscissae on [0, 1]
 
@@ -159,42 +159,6 @@ def voigt_strains(grad, ue) -> np.ndarray:
         if i != j:
             e += np.einsum("mk,mk->m", grad[:, i], u[:, :, j])
         out[:, row] = e
-    return out
-
-
-def voigt_strain_rows(grad, u) -> np.ndarray:
-    """(s, m) Voigt strains of :func:`voigt_strains` with the arrays component-major: ``grad`` (dim, k, m) the basis
-    gradients (1/m), ``u`` (k, dim, m) the element displacements (node k's component i: ``u[k, i]``), each a
-    contiguous row of the m cells (kept so by the caller: the products of contiguous rows run 2-3x faster than
-    :func:`voigt_strains`' einsum over strided columns). The same numbers as :func:`voigt_strains`: each sum over
-    the k nodes in node order from the first product, as its einsum sums (tests/test_strain_rows.py)."""
-    dim, k, m = grad.shape
-    pairs = VOIGT[dim]
-    out = np.empty((len(pairs), m))
-    for row, (i, j) in enumerate(pairs):
-        e = out[row]
-        np.multiply(grad[j, 0], u[0, i], out=e)
-        for n in range(1, k):
-            e += grad[j, n] * u[n, i]
-        if i != j:                                      # the engineering shear's second sum, added whole
-            t = grad[i, 0] * u[0, j]
-            for n in range(1, k):
-                t += grad[i, n] * u[n, j]
-            e += t
-    return out
-
-
-def gradient_rows(grad, values) -> np.ndarray:
-    """(dim, m) the gradient sum_n grad[:, n] values[n] of a field with nodal ``values`` (k, m) on basis gradients
-    ``grad`` (dim, k, m) (1/m), component-major as :func:`voigt_strain_rows` (each row contiguous over the m cells;
-    each sum in node order from the first product)."""
-    dim, k, m = grad.shape
-    out = np.empty((dim, m))
-    for d in range(dim):
-        e = out[d]
-        np.multiply(grad[d, 0], values[0], out=e)
-        for n in range(1, k):
-            e += grad[d, n] * values[n]
     return out
 
 

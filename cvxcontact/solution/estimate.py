@@ -49,8 +49,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import frozen, locked
-from ..fem.assembly import VOIGT, gradient_rows, gradients, voigt_strain_rows
+from ..errors import frozen
+from ..fem.assembly import VOIGT, gradients, voigt_strains
 from ..fem.simplex import simplex_rule
 from ..fem.space import space
 from ..geometry.facets import facet_keys
@@ -117,15 +117,12 @@ def _fields(g, u, phi):
     (m, q, ...) with q = d + 1, or q = 1 where the fields are constant on a cell (then every vertex has it)."""
     c, e, kappa = g.tensors
     u = np.asarray(u, dtype=float)
-    eps = _strains(g, u)
+    eps = _strains(g.G, np.take(u.ravel(), g.dofs))
     sigma = _times(eps, c.T)
     gphi = D = None
     if e is not None:
-        pe = np.take(np.asarray(phi, dtype=float), g.el.T)         # (k, m): the rows of the cells' potentials
-        G = g.rows[0]
-        gphi = np.empty(g.G.shape[:3])
-        for i in range(len(G)):
-            gphi[:, i] = gradient_rows(G[i], pe).T
+        pe = np.take(np.asarray(phi, dtype=float), g.el)
+        gphi = np.einsum("mvdj,mj->mvd", g.G, pe)
         sigma += _times(gphi, e)                                     # in place: the same sums, one array fewer
         D = _times(eps, e.T)
         D -= _times(gphi, kappa.T)
@@ -138,17 +135,13 @@ def _times(a, b) -> np.ndarray:
     return (a.reshape(-1, a.shape[-1]) @ b).reshape(a.shape[:-1] + (b.shape[1],))
 
 
-def _strains(g, u) -> np.ndarray:
-    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values of the displacements ``u`` (nodal, node-major)
-    on the :class:`Geometry` ``g`` (G (m, q, d, k) its shape gradients, ue the element displacements), from its
-    component-major copies (:attr:`Geometry.rows`: :func:`~cvxcontact.fem.assembly.voigt_strain_rows`, the numbers
-    of :func:`~cvxcontact.fem.assembly.voigt_strains` without forming B)."""
-    G, dofs = g.rows
-    q, dim, k, m = G.shape
-    ue = np.take(np.asarray(u, dtype=float).ravel(), dofs).reshape(k, dim, m)
+def _strains(G, ue) -> np.ndarray:
+    """(m, q, s) Voigt strains B(G[:, i]) ue at the q corner values, G (m, q, d, k) the shape gradients, ue (m, d k)
+    the element displacements (:func:`~cvxcontact.fem.assembly.voigt_strains`: without forming B)."""
+    m, q, dim, _ = G.shape
     eps = np.empty((m, q, len(VOIGT[dim])))
     for i in range(q):
-        eps[:, i] = voigt_strain_rows(G[i], ue).T
+        eps[:, i] = voigt_strains(G[:, i], ue)
     return eps
 
 
@@ -213,28 +206,18 @@ class Geometry:
         self.tensors = c, _, kappa = body.material.tensors(self.dim)
         self.cT = smallest_eigenvalue(c, True)
         self.kT = smallest_eigenvalue(kappa, False) if kappa is not None else None
-        self.measure, gradL = gradients(mesh.points, mesh.cells)
-        # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL). Kept component-major (rows, _fields' products of
-        # contiguous rows); G and, for P1, gradL are views of that copy: one copy of the gradients either way
-        self.el, G = space(degree, mesh.cell).corner_gradients(body, gradL)
-        self._G = locked(G.transpose(1, 2, 3, 0))
-        self.G = self._G.transpose(3, 0, 1, 2)
-        self.gradL = self._G[0].transpose(2, 0, 1) if np.may_share_memory(G, gradL) else gradL
+        self.measure, self.gradL = gradients(mesh.points, mesh.cells)
+        # G (m, q, d, k): q = d + 1, or 1 (P1: a view of gradL, one copy of the gradients)
+        self.el, self.G = space(degree, mesh.cell).corner_gradients(body, self.gradL)
         self._parts: dict = {}
         self._roles: dict = {}
 
     @cached_property
-    def rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """The shape gradients and the element displacements' indices component-major, for :func:`_fields`: G
-        (q, d, k, m) (1/m; the one copy of the gradients kept, :attr:`G` its (m, q, d, k) view) and (k d, m) the
-        index of node k's component i in the flattened nodal displacements (node-major) at row k d + i, each row
-        contiguous over the m cells (products of contiguous rows: :func:`~cvxcontact.fem.assembly.
-        voigt_strain_rows`, :func:`~cvxcontact.fem.assembly.gradient_rows`). The indices are kept per geometry, 4
-        bytes each (int32 while every dof index fits, else int64)."""
+    def dofs(self) -> np.ndarray:
+        """(m, k d) the element displacements' indices in the flattened nodal displacements (node-major)."""
         k, dim = self.el.shape[1], self.dim
         index = np.int32 if (int(self.el.max()) + 1) * dim <= np.iinfo(np.int32).max else np.int64
-        dofs = (dim * self.el.T[:, None, :].astype(index) + np.arange(dim, dtype=index)[:, None]).reshape(k * dim, -1)
-        return self._G, locked(dofs)
+        return (dim * self.el[:, :, None] + np.arange(dim)).reshape(len(self.el), k * dim).astype(index)
 
     def roles(self, mech: dict, elec: dict, partial: dict) -> _Roles:
         """The :class:`_Roles` of the boundary parts' mechanical roles ``mech`` and electric roles ``elec`` (tag ->

@@ -146,9 +146,18 @@ class SimplexSide:
 
     def traction(self, element, L) -> np.ndarray:
         """(k, d) sigma_h n (Pa) at the points of barycentric coordinates ``L`` (d,) or (k, d) on the trace's
-        elements ``element`` (indices or a slice into ``f``)."""
-        cell = self.cell[element]
-        return _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[element], L), self.normals[element])
+        elements ``element`` (indices or a slice into ``f``), by blocks of :data:`CELLS` points (the vertex
+        values gathered per point, (k, d + 1, s), are the largest temporary of the estimate otherwise)."""
+        element = np.arange(len(self.f))[element] if isinstance(element, slice) else np.asarray(element)
+        L = np.asarray(L, dtype=float)
+        out = np.empty((len(element), self.normals.shape[1]))
+        for s in range(0, len(element), CELLS):
+            e = element[s:s + CELLS]
+            cell = self.cell[e]
+            out[s:s + CELLS] = _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[e],
+                                                                  L if L.ndim == 1 else L[s:s + CELLS]),
+                                         self.normals[e])
+        return out
 
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
@@ -388,7 +397,8 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 tq = ps.sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
             np.add.at(acc[key], fq, wts[ok] * R2)
-            ps.points(face, Lf, fq, wts, ok, N, elements)
+            if len(held[key]) > 1:                                     # kept for the cross terms, shared friction
+                ps.points(face, Lf, fq, wts, ok, N, elements)
             for other in held[key][:held[key].index(ps)]:            # the cross terms with the part's pairs
                 _cross_terms(acc[key], normals, ps, other)
             if last[key] == i:                                         # the side's last pair: its term

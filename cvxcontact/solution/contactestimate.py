@@ -406,6 +406,7 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 np.add.at(eta2[k], cell, term)
                 parts["contact traction"] += float(term.sum())
             owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
+            del face, Lf, ok, s, fq, lq, R2                            # this side's points: not held into the next
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)

@@ -538,7 +538,7 @@ def test_contact_tractions_by_blocks_equal_those_of_every_point(monkeypatch):
     g = est.Geometry(body, 1)
     fields = est._fields(g, sol.u[0], sol.phi[0])
     corners = np.broadcast_to(fields[2], (len(fields[2]), 4, 6))
-    on = cest.SimplexSides(body.mesh, corners, g.facets).side("bottom")
+    on = cest.SimplexSides(body.mesh, fields[2], g.facets, ["bottom"]).side("bottom")
     rng = np.random.default_rng(5)
     faces = rng.integers(0, len(on.f), 40)                   # repeated faces, in no order
     L = rng.dirichlet(np.ones(3), 40)

@@ -101,16 +101,22 @@ def _traction(sigma_v, L, n):
 
 class SimplexSides:
     """What the contact terms read of one body of simplices (:class:`~.estimate.Geometry`): the vertex values of
-    sigma_h ``sigma`` (m, d + 1, s) Voigt, Pa, on its cells and its facet table ``facets``; :meth:`side` one
-    boundary part. The same questions of a body of quadrilaterals or hexahedra:
-    :class:`~.tensorestimate.TensorSides`."""
+    sigma_h ``sigma`` (m, q, s) Voigt, Pa, on its cells (q = d + 1, or 1: constant on each cell, read at each of
+    the d + 1 vertices) and its facet table ``facets``; :meth:`side` one boundary part of ``parts`` (the body's
+    contact parts: only the rows of the cells holding their faces are kept, a copy, not the body's every
+    cell). The same questions of a body of quadrilaterals or hexahedra: :class:`~.tensorestimate.TensorSides`."""
 
-    def __init__(self, mesh, sigma, facets):
-        self._mesh, self._sigma, self._facets = mesh, sigma, facets
+    def __init__(self, mesh, sigma, facets, parts):
+        self._mesh, self._facets = mesh, facets
+        self._cells = {part: _contact_cells(mesh, part, facets) for part in parts}
+        kept = np.unique(np.concatenate([np.zeros(0, dtype=int), *(c for c, _ in self._cells.values())]))
+        rows = sigma[kept]                                            # (c, q, s), the corners a view of it
+        self._sigma, self._kept = np.broadcast_to(rows, (len(rows), mesh.cells.shape[1], rows.shape[2])), kept
 
     def side(self, part) -> SimplexSide:
-        """The :class:`SimplexSide` of boundary part ``part``."""
-        return SimplexSide(self._mesh, self._sigma, self._facets, part)
+        """The :class:`SimplexSide` of contact part ``part``."""
+        cell, f = self._cells[part]
+        return SimplexSide(self._mesh, self._sigma, (cell, f, np.searchsorted(self._kept, cell)), part)
 
     def multiplier(self, c, part) -> np.ndarray:
         """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` (on this body's part ``part``): the
@@ -131,9 +137,9 @@ class SimplexSide:
     the trace's elements, the face of each element (:meth:`face_of`: itself) and int_F |sigma_h n|^2
     (:meth:`squares`)."""
 
-    def __init__(self, mesh, sigma, facets, part):
+    def __init__(self, mesh, sigma, faces, part):
         self._mesh, self._sigma, self._part = mesh, sigma, part
-        self.cell, self.f = _contact_cells(mesh, part, facets)
+        self.cell, self.f, self._row = faces            # its cells, faces, and the cells' rows of ``sigma``
         self.normals = mesh.outward_normals(part)
 
     @property
@@ -154,7 +160,7 @@ class SimplexSide:
         for s in range(0, len(element), CELLS):
             e = element[s:s + CELLS]
             cell = self.cell[e]
-            out[s:s + CELLS] = _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[e],
+            out[s:s + CELLS] = _traction(self._sigma[self._row[e]], _bary(self._mesh.cells[cell], self.f[e],
                                                                   L if L.ndim == 1 else L[s:s + CELLS]),
                                          self.normals[e])
         return out
@@ -162,7 +168,7 @@ class SimplexSide:
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
         mesh, cell, f = self._mesh, self.cell, self.f
-        tv = voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
+        tv = voigt_traction(_facet_values(self._sigma[self._row], mesh.cells[cell], f), self.normals)
         acc = np.zeros(len(f))
         for Lf, w in zip(*simplex_rule(2, 2)):
             acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)

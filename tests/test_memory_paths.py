@@ -525,3 +525,30 @@ def _uncanonical(block):
     K.has_sorted_indices = False
     assert not K.has_canonical_format
     return replace(block, Kuu=K)
+
+
+@pytest.mark.numerics
+def test_contact_tractions_by_blocks_equal_those_of_every_point(monkeypatch):
+    """sigma_h n at points of the contact faces by blocks of 7 points (`contactestimate.SimplexSide.traction`,
+    ragged last block; per-point barycentric coordinates, one set for every face, a slice of the faces) is the
+    traction of every point at once (the per-point vertex values gathered whole, `_traction`), bit for bit."""
+    scene = two_boxes(3)
+    sol = cc.solve(scene, "sigma1", estimate=False)
+    body = scene.bodies[0]
+    g = est.Geometry(body, 1)
+    fields = est._fields(g, sol.u[0], sol.phi[0])
+    corners = np.broadcast_to(fields[2], (len(fields[2]), 4, 6))
+    on = cest.SimplexSides(body.mesh, fields[2], g.facets, ["bottom"]).side("bottom")
+    rng = np.random.default_rng(5)
+    faces = rng.integers(0, len(on.f), 40)                   # repeated faces, in no order
+    L = rng.dirichlet(np.ones(3), 40)
+
+    def whole(e, Lf):
+        cell = on.cell[e]
+        return cest._traction(corners[cell], cest._bary(body.mesh.cells[cell], on.f[e], Lf), on.normals[e])
+
+    monkeypatch.setattr(cest, "CELLS", 7)
+    assert np.array_equal(on.traction(faces, L), whole(faces, L))
+    third = np.full(3, 1 / 3)
+    assert np.array_equal(on.traction(slice(None), third), whole(np.arange(len(on.f)), third))
+    assert on.traction(faces[:0], L[:0]).shape == (0, 3)

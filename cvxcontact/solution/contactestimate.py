@@ -101,16 +101,22 @@ def _traction(sigma_v, L, n):
 
 class SimplexSides:
     """What the contact terms read of one body of simplices (:class:`~.estimate.Geometry`): the vertex values of
-    sigma_h ``sigma`` (m, d + 1, s) Voigt, Pa, on its cells and its facet table ``facets``; :meth:`side` one
-    boundary part. The same questions of a body of quadrilaterals or hexahedra:
-    :class:`~.tensorestimate.TensorSides`."""
+    sigma_h ``sigma`` (m, q, s) Voigt, Pa, on its cells (q = d + 1, or 1: constant on each cell, read at each of
+    the d + 1 vertices) and its facet table ``facets``; :meth:`side` one boundary part of ``parts`` (the body's
+    contact parts: only the rows of the cells holding their faces are kept, a copy, not the body's every
+    cell). The same questions of a body of quadrilaterals or hexahedra: :class:`~.tensorestimate.TensorSides`."""
 
-    def __init__(self, mesh, sigma, facets):
-        self._mesh, self._sigma, self._facets = mesh, sigma, facets
+    def __init__(self, mesh, sigma, facets, parts):
+        self._mesh, self._facets = mesh, facets
+        self._cells = {part: _contact_cells(mesh, part, facets) for part in parts}
+        kept = np.unique(np.concatenate([np.zeros(0, dtype=int), *(c for c, _ in self._cells.values())]))
+        rows = sigma[kept]                                            # (c, q, s), the corners a view of it
+        self._sigma, self._kept = np.broadcast_to(rows, (len(rows), mesh.cells.shape[1], rows.shape[2])), kept
 
     def side(self, part) -> SimplexSide:
-        """The :class:`SimplexSide` of boundary part ``part``."""
-        return SimplexSide(self._mesh, self._sigma, self._facets, part)
+        """The :class:`SimplexSide` of contact part ``part``."""
+        cell, f = self._cells[part]
+        return SimplexSide(self._mesh, self._sigma, (cell, f, np.searchsorted(self._kept, cell)), part)
 
     def multiplier(self, c, part) -> np.ndarray:
         """lambda_h (Pa) at the nodes of X_h of the 3D contact result ``c`` (on this body's part ``part``): the
@@ -131,9 +137,9 @@ class SimplexSide:
     the trace's elements, the face of each element (:meth:`face_of`: itself) and int_F |sigma_h n|^2
     (:meth:`squares`)."""
 
-    def __init__(self, mesh, sigma, facets, part):
+    def __init__(self, mesh, sigma, faces, part):
         self._mesh, self._sigma, self._part = mesh, sigma, part
-        self.cell, self.f = _contact_cells(mesh, part, facets)
+        self.cell, self.f, self._row = faces            # its cells, faces, and the cells' rows of ``sigma``
         self.normals = mesh.outward_normals(part)
 
     @property
@@ -146,14 +152,23 @@ class SimplexSide:
 
     def traction(self, element, L) -> np.ndarray:
         """(k, d) sigma_h n (Pa) at the points of barycentric coordinates ``L`` (d,) or (k, d) on the trace's
-        elements ``element`` (indices or a slice into ``f``)."""
-        cell = self.cell[element]
-        return _traction(self._sigma[cell], _bary(self._mesh.cells[cell], self.f[element], L), self.normals[element])
+        elements ``element`` (indices or a slice into ``f``), by blocks of :data:`CELLS` points (the vertex
+        values gathered per point, (k, d + 1, s), are the largest temporary of the estimate otherwise)."""
+        element = np.arange(len(self.f))[element] if isinstance(element, slice) else np.asarray(element)
+        L = np.asarray(L, dtype=float)
+        out = np.empty((len(element), self.normals.shape[1]))
+        for s in range(0, len(element), CELLS):
+            e = element[s:s + CELLS]
+            cell = self.cell[e]
+            out[s:s + CELLS] = _traction(self._sigma[self._row[e]], _bary(self._mesh.cells[cell], self.f[e],
+                                                                  L if L.ndim == 1 else L[s:s + CELLS]),
+                                         self.normals[e])
+        return out
 
     def squares(self) -> np.ndarray:
         """(k,) int_F |sigma_h n|^2 (Pa^2 m^2) of each face F (3D: sigma_h n affine on F, a rule of degree 2)."""
         mesh, cell, f = self._mesh, self.cell, self.f
-        tv = voigt_traction(_facet_values(self._sigma[cell], mesh.cells[cell], f), self.normals)
+        tv = voigt_traction(_facet_values(self._sigma[self._row], mesh.cells[cell], f), self.normals)
         acc = np.zeros(len(f))
         for Lf, w in zip(*simplex_rule(2, 2)):
             acc += w * (np.einsum("j,kjd->kd", Lf, tv) ** 2).sum(axis=1)
@@ -388,7 +403,8 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 tq = ps.sign * tan[ok]
                 R2 += ((tq - 2 * s - 2 * lq[:, None] * normals[fq]) * tq).sum(axis=1)
             np.add.at(acc[key], fq, wts[ok] * R2)
-            ps.points(face, Lf, fq, wts, ok, N, elements)
+            if len(held[key]) > 1:                                     # kept for the cross terms, shared friction
+                ps.points(face, Lf, fq, wts, ok, N, elements)
             for other in held[key][:held[key].index(ps)]:            # the cross terms with the part's pairs
                 _cross_terms(acc[key], normals, ps, other)
             if last[key] == i:                                         # the side's last pair: its term
@@ -396,6 +412,7 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
                 np.add.at(eta2[k], cell, term)
                 parts["contact traction"] += float(term.sum())
             owners.append((k, np.where(fc >= 0, cell[on.face_of(np.maximum(fc, 0))], -1)))
+            del face, Lf, ok, s, fq, lq, R2                            # this side's points: not held into the next
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
         comp = areaS * (wq * np.maximum(lam, 0.0) * np.maximum(open_, 0.0)).sum(axis=1)

@@ -284,11 +284,11 @@ class Geometry:
         """Add the element and facet terms of ``body``'s fields (displacements ``u``, potentials ``phi``) to its
         ``eta2`` (m,) and ``parts``; (its squared energy norm, what the contact terms read of it)."""
         fields = _fields(self, u, phi)
-        sigma = fields[2]
-        corners = np.broadcast_to(sigma, (len(sigma), self.gradL.shape[2], sigma.shape[2]))   # a view: no copies
         _element_terms(body, fields, self, eta2, parts)
         _facet_terms(body, fields, self, eta2, parts, sol)
-        return float(_cell_energies(body, fields).sum()), contact.SimplexSides(body.mesh, corners, self.facets)
+        contacts = [t for t, role in boundary_roles(body, sol)[0].items() if role == "contact"]
+        return (float(_cell_energies(body, fields).sum()),
+                contact.SimplexSides(body.mesh, fields[2], self.facets, contacts))
 
     def points(self, L) -> np.ndarray:
         """(m, d) m: the points of barycentric coordinates ``L`` (d + 1,) in each cell (formed anew, not kept)."""

@@ -373,6 +373,19 @@ def two_blocks_solver(nx: int):
     return scene, solver, time.process_time() - c0
 
 
+def load_cases(scene):
+    """``cases(k)``: k new load cases of ``demo.two_blocks`` (the re-solve scripts' loads: the body force, charge and
+    traction at 0.37 of the scene's, each traction a thousandth apart from the last so no two cases are alike)."""
+    count = iter(range(10 ** 6))
+
+    def cases(k: int) -> list:
+        s = 0.37
+        return [scene.with_loads(0, body_force=(0.0, -2e9 * s), surface_charge={"left": -0.05 * s},
+                                 traction={"right": (0.0, 3e8 * s * (1 + next(count) / 1000))}) for _ in range(k)]
+
+    return cases
+
+
 def residual(K, z, rhs) -> float:
     """||K z - rhs|| / ||rhs||."""
     return float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import load_cases as new_load_cases
 from harness import two_blocks_solver
 
 
@@ -39,12 +40,10 @@ def main():
     warnings.simplefilter("ignore")
     nx, rounds, cases = int(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
     scene, solver, first = two_blocks_solver(nx)
-    count = iter(range(10 ** 6))
+    new_cases = new_load_cases(scene)
 
     def load_cases():
-        s = 0.37
-        return [scene.with_loads(0, body_force=(0.0, -2e9 * s), surface_charge={"left": -0.05 * s},
-                                 traction={"right": (0.0, 3e8 * s * (1 + next(count) / 1000))}) for _ in range(cases)]
+        return new_cases(cases)
 
     t, stages = {"one": [], "many": []}, {}
     for r in range(rounds):

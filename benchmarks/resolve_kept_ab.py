@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from harness import load_cases as new_load_cases
 from harness import two_blocks_solver
 
 from cvxcontact.discrete import blocks as blocks_module
@@ -74,12 +75,7 @@ def main():
         est._facet_terms = parts["facet"]
 
     scene, solver, first = two_blocks_solver(nx)
-    count = iter(range(10 ** 6))
-
-    def load_cases(k):
-        s = 0.37
-        return [scene.with_loads(0, body_force=(0.0, -2e9 * s), surface_charge={"left": -0.05 * s},
-                                 traction={"right": (0.0, 3e8 * s * (1 + next(count) / 1000))}) for _ in range(k)]
+    load_cases = new_load_cases(scene)
 
     t = {(mode, side): [] for mode in ("solve", "solve_many") for side in ("before", "after")}
     for r in range(rounds):

@@ -37,17 +37,13 @@ def child(nx, rounds, cases, save):
     """One process: the first solve and the rounds of load cases (module docstring); a JSON line of its times."""
     sys.path.insert(0, str(HERE))
     warnings.simplefilter("ignore")
+    from harness import load_cases as new_load_cases
     from harness import two_blocks_solver
 
     import cvxcontact as cc
 
     scene, solver, first = two_blocks_solver(nx)
-    count = iter(range(10 ** 6))
-
-    def load_cases(k):
-        s = 0.37
-        return [scene.with_loads(0, body_force=(0.0, -2e9 * s), surface_charge={"left": -0.05 * s},
-                                 traction={"right": (0.0, 3e8 * s * (1 + next(count) / 1000))}) for _ in range(k)]
+    load_cases = new_load_cases(scene)
 
     solver.solve(load_cases(1)[0])
     single, many = [], []

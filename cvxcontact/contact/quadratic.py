@@ -244,7 +244,10 @@ class QuadraticInterface:
         pair, 1 per trace node where its contact is closed, or None): of the runs holding the same segments at a
         node (inside; ending; starting) those closed there take its share, one over their number, where one is
         (an obstacle open at a node, its force 0, takes none; the sums per segment kept): a floor open under a
-        strip raised above it leaves the strip's nodes to the strip, as on P1 and 3D P2 faces."""
+        strip raised above it leaves the strip's nodes to the strip, as on P1 and 3D P2 faces. A run's first or
+        last vertex inside another run stays with that run even where it is open there: the segment beyond is that
+        run's alone and its function, continuous, reaches the vertex with the side's value (forced by the pairs'
+        spaces, whatever the split; tests/test_p2_run_vertex.py)."""
         j = np.arange(selections[0].shape[1])
         held = [np.flatnonzero(np.asarray(abs(s).sum(axis=0)).ravel() > 0.5) for s in selections]
         lo, hi = (np.array([h[k] for h in held])[:, None] for k in (0, -1))

@@ -188,3 +188,36 @@ def test_model_with_a_user_row_on_coincident_floors(body):
     assert ref.ok and sol.ok
     assert rel(sol.u[0], ref.u[0]) < 1e-12
     assert rel(summed(ref, sol, "force"), ref.contacts[0].force) < 2e-12
+
+
+@pytest.mark.parametrize("body", ["3D P1", "3D Q1"])
+def test_amg_warm_start_after_the_tighter_obstacle_swaps_stays_warm(body, monkeypatch):
+    """One AMG ContactSolver whose strip moves from 3e-6 m above the floor to 3e-6 m below it, to it, 1e-9 m below
+    it and back: each re-solve is one warm Krylov solve (``KrylovContact.solve`` called once, the route
+    WARM_START) and answers as a fresh solver. Before, with the strip below (every row closed on the floor at
+    gap 0) the reduced right-hand side was F's rounding (6.9e-18 against ||F|| = 0.10, P1; 8.8e-18, Q1), the warm
+    Krylov solve could not meet 1e-10 of it and the route solved again cold (two calls, KRYLOV_ACTIVE_SET); now
+    such a b is zero (``amg.rounding_floor``: 5.2e-16 and 7.6e-16 here) and its answer x_fix. u and the summed
+    forces against the fresh solver's, relative to its max: the bounds of the AMG route above (1e-8, 1e-7);
+    measured over the five kernel sets: 0 (the strip below, at, 1e-9 m below: the same bits) to 5.5e-16 (u), 0 to
+    1.5e-16 (forces)."""
+    pytest.importorskip("pyamg")
+    from cvxcontact.backends import amg
+
+    dim, degree, cell = BODIES[body]
+    calls = []
+    solve = amg.KrylovContact.solve
+    monkeypatch.setattr(amg.KrylovContact, "solve", lambda self, *a, **k: calls.append(1) or solve(self, *a, **k))
+
+    def made(drop):
+        return scene((floor(dim), lowered(0.3, 0.7, dim, drop=drop)), dim, cell)
+    solver = cc.ContactSolver(made(-UP), "sigma1", degree=degree, method="amg")
+    assert solver.solve().ok
+    for drop in (UP, 0.0, 1e-9, -UP):
+        calls.clear()
+        sol = solver.solve(made(drop))
+        assert len(calls) == 1 and sol.info.route == cc.Route.WARM_START
+        fresh = cc.solve(made(drop), "sigma1", degree=degree, method="amg")
+        assert sol.ok and fresh.ok
+        assert rel(sol.u[0], fresh.u[0]) < 1e-8
+        assert rel(summed(fresh, sol, "force"), summed(fresh, fresh, "force")) < 1e-7

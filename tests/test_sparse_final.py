@@ -140,3 +140,59 @@ def test_a_wrong_prediction_is_only_a_new_base_and_the_answer_is_still_checked(m
         x = np.concatenate([np.concatenate([a for a in (uk, pk) if a is not None]) for uk, pk in zip(u, phi)])
         assert rel(x, z[:sc.n]) < WRONG_PREDICTION_BOUNDS[0]
         assert rel(y, z[sc.n:]) < WRONG_PREDICTION_BOUNDS[1]
+
+
+CLOCK_COSTS = (0.0, 30.0, 1000.0)
+"""A numeric factorisation's cost in single solves on the virtual clocks of
+:func:`test_the_answer_does_not_depend_on_the_clock`: the timed cap at CAP_MIN, 496, CAP_MAX (thin_layer(200): 9, 7
+and 2 systems solved in the first solve)."""
+
+
+@pytest.mark.parametrize("factorization", ["superlu", "pardiso"])
+def test_the_answer_does_not_depend_on_the_clock(monkeypatch, layer200, factorization):
+    """The timed cap (SparseContact._over_cap) chooses between refactorising and the capacitance columns by the
+    clock, so the sets the steps factorise and their count follow the machine's speed; the answer does not
+    (SparseContact.solve takes it from a factor of K(A) for the final set A itself). Three virtual clocks
+    (each perf_counter call advances 1, a numeric factorisation CLOCK_COSTS more): different paths (the systems
+    solved differ), and the same bits of u, phi, y and the active set, in a first solve and in a re-solve at
+    1.3 F from the state the first left. One MKL thread (PARDISO on several factorises one matrix to different
+    bits run to run). Measured (benchmarks/results/sparse_clock_bits.md): thin_layer(200, 400, 800, 1500) and
+    two_boxes(12), five clocks each, SuperLU and PARDISO: one hash per scene and factorisation. With _last and the
+    final refactorisation of solve both off this test fails (thin_layer(400): 5 hashes over 7 clocks)."""
+    if factorization == "pardiso" and not factor_module.pardiso_available():
+        pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
+    import hashlib
+
+    monkeypatch.setenv("MKL_NUM_THREADS", "1")
+    blocks, E, F, g = layer200
+    now, cost = [0.0], [0.0]
+
+    def clock():
+        now[0] += 1.0
+        return now[0]
+
+    def slow(call):
+        def timed(*args, **kwargs):
+            out = call(*args, **kwargs)
+            now[0] += cost[0]
+            return out
+        return timed
+
+    monkeypatch.setattr(sparse_mod, "time", SimpleNamespace(perf_counter=clock))
+    monkeypatch.setattr(sparse_mod, "factorize", slow(sparse_mod.factorize))
+    monkeypatch.setattr(factor_module.PardisoSymmetric, "factor", slow(factor_module.PardisoSymmetric.factor))
+    hashes, systems = set(), set()
+    for c in CLOCK_COSTS:
+        cost[0] = c
+        sc = SparseContact(blocks, E, factorization=factorization)
+        h, counts = hashlib.sha256(), []
+        for load in (F, 1.3 * F):
+            u, phi, y, active, steps = sc.solve(load, g)
+            counts.append(steps)
+            for a in [*u, *(p for p in phi if p is not None), y, active]:
+                h.update(np.ascontiguousarray(a).tobytes())
+        assert active.any() and not active.all()
+        hashes.add(h.hexdigest())
+        systems.add(tuple(counts))
+    assert len(systems) == len(CLOCK_COSTS)              # three paths (not one path three times)
+    assert len(hashes) == 1                               # one answer

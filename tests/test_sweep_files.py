@@ -157,3 +157,26 @@ def test_retry_ladder_recovers_a_failed_solve(tmp_path):
     assert "user_limit" in first["error"] and first["solver_options"]["max_iter"] == 3
     assert second["ok"] and second["solver_options"]["max_iter"] == 400 and record["kept_attempt"] == 2
     assert record["ok"] and record["residuals"] == second["residuals"]
+
+
+def test_a_handed_over_route_says_why_in_the_record_and_the_table(tmp_path):
+    """The AMG route hands a 2D scene to the sparse route (tests/test_amg_route.py): the case record, its attempt and
+    the loaded table carry the reason (``SolveInfo.handed_over``); a route that hands nothing over records ""."""
+    pytest.importorskip("pyamg")
+    import cvxcontact as cc
+
+    small_scene(tmp_path)
+    (tmp_path / "amg.toml").write_text('scene = "scene.toml"\nmethod = "amg"\n')
+    (tmp_path / "condensed.toml").write_text('scene = "scene.toml"\nmethod = "condensed"\n')
+    for name in ("amg", "condensed"):
+        assert cli.main(["sweep", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / name), "--workers", "1",
+                         "-q"]) == 0
+    (amg,) = [json.loads(p.read_text()) for p in (tmp_path / "amg" / "cases").glob("*.json")]
+    (condensed,) = [json.loads(p.read_text()) for p in (tmp_path / "condensed" / "cases").glob("*.json")]
+    assert amg["backend"] == "sparse" and amg["handed_over"].startswith("the AMG route cannot take it: method 'amg'")
+    assert amg["attempts"][0]["handed_over"] == amg["handed_over"]
+    assert condensed["backend"] == "condensed" and condensed["handed_over"] == ""
+    assert condensed["attempts"][0]["handed_over"] == ""
+    rows = cc.load_sweep(tmp_path / "amg").cases
+    row = rows.iloc[0].to_dict() if hasattr(rows, "iloc") else rows[0]
+    assert row["handed_over"] == amg["handed_over"] and row["backend"] == "sparse"

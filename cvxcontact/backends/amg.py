@@ -37,10 +37,11 @@ next set y_a w_a + s_a > 0) and changes only how each step's system is solved:
   against 71 and two (benchmarks/results/bench3d_scale.md at 1e5-5e5). Every solve starts from the previous
   answer, but a cold one (the first, ``warm_start=False``, or where the previous set led nowhere), which starts from
   zero: the same load solved again is answered with the same bits (warm: its Krylov solves start at the answer and
-  stop there at once; cold: as a fresh solver). A set still changing is solved loosely: a step tightens its solve
-  through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so only the last set is solved to ``RTOL``, and
-  a loose solve whose set fails its signs stops as soon as two consecutive iterates imply the same next set
-  (:data:`SETTLE`).
+  stop there at once; cold: as a fresh solver). A set whose reduced right-hand side is zero to rounding
+  (:func:`rounding_floor`) is answered by its closed rows alone, warm or cold. A set still changing is solved
+  loosely: a step tightens its solve through :data:`STEP_RTOLS` to ``RTOL`` only while the signs hold, so only the
+  last set is solved to ``RTOL``, and a loose solve whose set fails its signs stops as soon as two consecutive
+  iterates imply the same next set (:data:`SETTLE`).
 * With a piezoelectric body K_A = [[A, B], [B^T, -C]] (u, then phi; A the stiffness, C the permittivity
   matrix, both positive definite: (26) with its Gauss rows negated) is symmetric indefinite. It is solved by
   GMRES (:func:`gmres`, right-preconditioned: the stopping test is on the true residual) with the block
@@ -81,7 +82,7 @@ from .sparse import row_weights
 log = logging.getLogger(__name__)
 
 __all__ = ["KrylovContact", "available", "gmres", "own_dofs", "RTOL", "STEP_RTOLS", "AMG_INSTALL", "GMRES_RESTART",
-           "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "loose_stages", "v_cycle"]
+           "LOOSE_KEEP", "Reduced", "RETRIES", "SETTLE", "loose_stages", "rounding_floor", "v_cycle"]
 
 RTOL = 1e-10
 """Relative residual (2-norm) of the Krylov solve that gives the answer. 1e-12 was not always attainable: on two
@@ -286,6 +287,29 @@ def stacked(blocks, zeros: bool = True) -> sp.csr_matrix:
         row, pos = row + size, pos + k
         del S
     return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+
+
+def rounding_floor(S: sp.csr_matrix, Tt: sp.csr_matrix, F: np.ndarray, x_fix: np.ndarray,
+                   slaves: np.ndarray) -> float:
+    """The 2-norm below which the reduced right-hand side ``b = Tt (F - S x_fix)`` is zero to rounding
+    (:meth:`KrylovContact._reduced`): k eps || |F| + |S| |x_fix| ||, the first-order bound of the rounding of
+    F - S x_fix (Higham, *Accuracy and Stability of Numerical Algorithms*, 2nd ed., §3.5), k the terms summed per
+    entry (the most stored entries in a row of S, one for F, those of a row of Tt). The scale is the loads and the
+    closed rows' forces before Tt takes the eliminated dofs out, not b's own terms: F itself carries rounding of
+    that order where its terms cancel (an imposed displacement's lifting K_fD u_D, the same at every dof of a
+    uniformly pressed layer), and Tt removes the dofs where they do not (the closed rows' own dofs), so b can be
+    pure rounding of F (measured: 6.9e-18 against ||F|| = 0.10, tests/reach_scenes.py's box pressed onto a strip
+    and a floor, every row closed). Such a b is no different from zero by its own rounding, and its Krylov answer
+    r = K^-1 b would be the rounding itself: ``_reduced`` takes b = 0, so the answer is r = 0, x = x_fix, from any
+    start. (A stopping test relative to ||b|| asked the Krylov solve for ``rtol`` of rounding: from zero it met it,
+    from a warm start, whose own residual is of the scale of the terms, it could not, and the route re-solved cold.)
+    ``x_fix`` is non-zero on the eliminated dofs ``slaves`` only and S is symmetric: |S| |x_fix| is formed from S's
+    rows there."""
+    terms = np.abs(F)
+    if len(slaves):
+        terms = terms + abs(S[slaves]).T @ np.abs(x_fix[slaves])
+    k = int(np.diff(S.indptr).max(initial=0)) + 1 + int(np.diff(Tt.indptr).max(initial=0))
+    return k * np.finfo(float).eps * float(np.linalg.norm(terms))
 
 
 def rigid_modes(points, Tu, centre=None, size=None) -> np.ndarray:
@@ -506,6 +530,8 @@ class KrylovContact:
         d[slaves] = self._diag[slaves]
         K = Reduced(S, T, Tt, d)
         b = Tt @ (F - S @ x_fix)
+        if np.linalg.norm(b) <= rounding_floor(S, Tt, F, x_fix, slaves):
+            b = np.zeros(n)                      # zero to rounding: its answer is r = 0 (warm or cold alike)
         self._reduction = (key, (T, x_fix, K, b))
         return T, x_fix, K, b
 

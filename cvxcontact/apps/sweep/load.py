@@ -103,6 +103,7 @@ def _row(case: dict, record: dict | None, failure: dict | None, state: str) -> d
     if record is not None:
         row.update({"ok": record.get("ok"), "status": record.get("status"), "polished": record.get("polished"),
                     "route": record.get("route"), "backend": record.get("backend"),
+                    "handed_over": record.get("handed_over"),
                     "iterations": record.get("iterations"), "attempts": len(record.get("attempts") or []),
                     "kept_attempt": record.get("kept_attempt"), "tolerance": record.get("tolerance"),
                     "seconds": record.get("seconds")})

@@ -61,7 +61,7 @@ def _record(n, method, settings, sol=None, error=None, seconds=0.0):
     if sol is None:
         return {**rec, "error": error}
     return {**rec, "backend": sol.info.method, "status": str(sol.status), "route": str(sol.path),
-            "iterations": sol.info.iterations, "ok": bool(sol.ok), "residuals": sol.residuals()}
+            "handed_over": sol.info.handed_over, "iterations": sol.info.iterations, "ok": bool(sol.ok), "residuals": sol.residuals()}
 
 
 def _solve(spec, task, method, scene_path):
@@ -196,6 +196,7 @@ def solve_case(task: dict, scene_path, method: str, out, allow_outside: bool = F
         info = sol.info
         record.update(summary(sol))
         record.update({"kept_attempt": kept, "route": str(info.route), "path": str(sol.path), "backend": info.method,
+                       "handed_over": info.handed_over,
                        "solver_status": str(sol.problem.status) if sol.problem is not None else None,
                        "iterations": info.iterations, "finish": str(info.finish) if info.finish else None,
                        "seconds": time.perf_counter() - t0})

@@ -1,0 +1,118 @@
+"""A warning of a solve is shown once per place under Python's "default" action, as any warning issued at that
+line is, when a user solves in a loop: ``for load in loads: cc.solve(scene)``. Python keeps what the "default"
+action showed in the module's ``__warningregistry__`` and empties every registry at any change of the filters
+(``warnings.catch_warnings`` enter and exit); the package entered one inside every solve (running CVXPY, the
+dense LU's and the finishes' factorisations), so the same NonUniqueWarning and ResolutionWarning were shown at
+every iteration (3 solves from one line: 3 of each, in a plain script and under ``simplefilter("default")``).
+The solve now leaves the filters alone; a caller's own filters and records work as before."""
+
+import os
+import subprocess
+import sys
+import textwrap
+import warnings
+from pathlib import Path
+
+import pytest
+from obstacle_scenes import half_model
+
+import cvxcontact as cc
+
+TESTS = Path(__file__).resolve().parent
+
+
+def _one_node():
+    """A force-controlled circle touching one node of the block under it: a NonUniqueWarning and a
+    ResolutionWarning (tests/test_warning_location.py, measured)."""
+    return half_model(force=(0.0, -1e7), center_x=0.5, roller=())
+
+
+def _count(caught, category):
+    return sum(issubclass(w.category, category) for w in caught)
+
+
+def _solve():
+    return cc.solve(_one_node(), condition="sigma1")
+
+
+def test_a_loop_from_one_line_shows_each_warning_once_under_default():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        for _ in range(3):
+            cc.solve(_one_node(), condition="sigma1")
+    assert [_count(caught, c) for c in (cc.NonUniqueWarning, cc.ResolutionWarning)] == [1, 1]
+
+
+def test_different_lines_show_it_once_each_and_always_shows_every_one():
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        for _ in range(2):
+            cc.solve(_one_node(), condition="sigma1")
+            cc.solve(_one_node(), condition="sigma1")
+    assert _count(caught, cc.NonUniqueWarning) == 2
+    assert len({w.lineno for w in caught if issubclass(w.category, cc.NonUniqueWarning)}) == 2
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(3):
+            cc.solve(_one_node(), condition="sigma1")
+    assert [_count(caught, c) for c in (cc.NonUniqueWarning, cc.ResolutionWarning)] == [3, 3]
+
+
+def test_a_callers_record_and_error_filters_still_apply():
+    with warnings.catch_warnings(record=True) as caught:      # the caller's record sees the package's warnings
+        warnings.simplefilter("always")
+        _solve()
+    assert _count(caught, cc.NonUniqueWarning) == 1
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", category=cc.NonUniqueWarning)
+        with pytest.raises(cc.NonUniqueWarning):
+            _solve()
+    with warnings.catch_warnings(record=True) as caught:      # and its "ignore"
+        warnings.simplefilter("always")
+        warnings.filterwarnings("ignore", category=cc.NonUniqueWarning)
+        _solve()
+    assert _count(caught, cc.NonUniqueWarning) == 0 and _count(caught, cc.ResolutionWarning) == 1
+
+
+def test_the_solve_leaves_the_filters_alone(monkeypatch):
+    """What the above rests on, counted where it happens: no change of the filters (``warnings._filters_mutated``,
+    which ``catch_warnings``, ``filterwarnings`` and ``simplefilter`` call) during a solve that warns (a dense LU,
+    the rows' finish, Clarabel) nor one that does not (two blocks, the LCP finish)."""
+    from conftest import two_blocks
+    calls = []
+    mutated = warnings._filters_mutated
+    monkeypatch.setattr(warnings, "_filters_mutated", lambda: calls.append(1) or mutated())
+    with warnings.catch_warnings(record=True):
+        warnings.simplefilter("always")
+        calls.clear()
+        _solve()
+        cc.solve(two_blocks(n1=(3, 2), n2=(2, 2), traction={"right": (0.0, 3e8)}))
+        cc.solve(two_blocks(n1=(3, 2), n2=(2, 2), traction={"right": (0.0, 3e8)}), method="full")
+        assert calls == []
+
+
+SCRIPT = """
+import sys
+sys.path.insert(0, {tests!r})
+from obstacle_scenes import half_model
+import cvxcontact as cc
+
+def scene():
+    return half_model(force=(0.0, -1e7), center_x=0.5, roller=())
+
+for _ in range(3):
+    cc.solve(scene(), condition="sigma1")
+{more}
+"""
+
+
+@pytest.mark.parametrize("more, shown", [("", 1), ("cc.solve(scene(), condition='sigma1')", 2)])
+def test_a_plain_script_under_python_s_default_filters(tmp_path, more, shown):
+    """As a user's script runs: ``python script.py``, Python's own default filters (no -W, no PYTHONWARNINGS)."""
+    script = tmp_path / "user_loop.py"
+    script.write_text(textwrap.dedent(SCRIPT.format(tests=str(TESTS), more=more)))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
+    run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert [run.stderr.count(f"{c}:") for c in ("NonUniqueWarning", "ResolutionWarning")] == [shown, shown], \
+        run.stderr

@@ -86,7 +86,6 @@ before.
 
 from __future__ import annotations
 
-
 import numpy as np
 import scipy.sparse as sp
 

@@ -30,7 +30,6 @@ the terms of that row's slack (eps = SIGN_TOL).
 
 from __future__ import annotations
 
-
 import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls

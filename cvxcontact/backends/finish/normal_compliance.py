@@ -3,7 +3,6 @@ equation of the law, dense or on the sparse mixed system."""
 
 from __future__ import annotations
 
-
 import numpy as np
 import scipy.linalg as sla
 

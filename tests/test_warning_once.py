@@ -197,3 +197,18 @@ def test_dense_lu_is_lu_factor_and_raises_where_it_warned():
         with pytest.raises(ValueError):
             dense_lu(np.full((2, 2), np.nan))
     assert caught == []
+
+
+def test_run_program_s_other_paths_keep_problem_solve_s_behaviour(capsys):
+    """A verbose solve runs ``problem.solve`` (CVXPY's log printed; the same bits); a parameter without a value
+    is refused as ``problem.solve`` refuses it (its ParameterError, named in the SolverError)."""
+    reference, x0, _ = _least_squares()
+    reference.solve(solver="CLARABEL", **CLARABEL)
+    verbose, x1, _ = _least_squares()
+    run_program(verbose, "CLARABEL", True, {})
+    assert "CVXPY" in capsys.readouterr().out and np.array_equal(x1.value, x0.value)
+    scale = cp.Parameter(nonneg=True)
+    problem, x, constraints = _least_squares()
+    unset = cp.Problem(cp.Minimize(scale * problem.objective.args[0]), constraints)
+    with pytest.raises(SolverError, match="ParameterError"):
+        run_program(unset, "CLARABEL", False, {})

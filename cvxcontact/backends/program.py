@@ -88,6 +88,11 @@ def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mappin
     return int(getattr(problem.solver_stats, "num_iters", None) or 0)
 
 
+_SOLVE_KEYWORDS = ("solver_verbose", "solver_path", "bibtex", "nlp")
+"""Keywords of CVXPY's ``Problem.solve`` not in :data:`~cvxcontact.backends.options.RESERVED` (which refuses the
+others): :func:`_solve` passes them to ``problem.solve``."""
+
+
 def _solve(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str, object]) -> None:
     """``problem.solve(solver=solver, verbose=verbose, **options)`` without CVXPY's warning "Solution may be
     inaccurate" (the status is recorded in SolveInfo and the checks say what holds), and without changing the
@@ -97,9 +102,10 @@ def _solve(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str
 
     Any change of the filters (``catch_warnings`` enter and exit) empties every module's record of the warnings
     the "default" action showed once per place, and a user's loop of solves showed the package's warnings at
-    every solve (tests/test_warning_once.py). A verbose solve, or an option CVXPY reads itself
-    (``solver_verbose``), runs ``problem.solve`` as before."""
-    if verbose or "solver_verbose" in options:
+    every solve (tests/test_warning_once.py). A verbose solve (CVXPY's own log), an option ``problem.solve``
+    reads itself (:data:`_SOLVE_KEYWORDS`, for solvers whose options are not checked) or a parameter without a
+    value (CVXPY's ParameterError) runs ``problem.solve`` as before."""
+    if verbose or any(k in options for k in _SOLVE_KEYWORDS) or any(p.value is None for p in problem.parameters()):
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
             problem.solve(solver=solver, verbose=verbose, **options)

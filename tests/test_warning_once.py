@@ -208,7 +208,7 @@ def test_run_program_s_other_paths_keep_problem_solve_s_behaviour(capsys):
     run_program(verbose, "CLARABEL", True, {})
     assert "CVXPY" in capsys.readouterr().out and np.array_equal(x1.value, x0.value)
     scale = cp.Parameter(nonneg=True)
-    problem, x, constraints = _least_squares()
+    problem, _, constraints = _least_squares()
     unset = cp.Problem(cp.Minimize(scale * problem.objective.args[0]), constraints)
     with pytest.raises(SolverError, match="ParameterError"):
         run_program(unset, "CLARABEL", False, {})

@@ -44,7 +44,6 @@ import glob
 import os
 import sys
 import threading
-import warnings
 import weakref
 
 import numpy as np
@@ -57,7 +56,7 @@ from ..errors import SolverError
 
 __all__ = ["FACTORIZATIONS", "Factorization", "Forward", "PardisoSymmetric", "factorize", "pardiso_available",
            "resolve", "SUPERLU_OPTIONS", "DENSE_FILL", "DenseLU", "lu", "superlu", "structurally_nonsingular",
-           "PardisoInterior", "PARDISO_ORDERINGS", "diagonal_stored"]
+           "PardisoInterior", "PARDISO_ORDERINGS", "diagonal_stored", "dense_lu"]
 
 FACTORIZATIONS = ("auto", "superlu", "pardiso")
 """Names accepted by :func:`factorize` (and ``cc.solve(..., factorization=)``)."""
@@ -83,17 +82,34 @@ DENSE_MAX = 8000
 """The largest order :func:`lu` factorises densely (512 MB: the dense copy, factorised in place)."""
 
 
+def dense_lu(a, overwrite_a: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """``scipy.linalg.lu_factor(a, overwrite_a=overwrite_a)``'s (lu, piv) of the dense square ``a`` (LAPACK's
+    getrf, the same call and bits), with an exactly singular ``a`` (a zero pivot, getrf's info > 0) raising
+    :class:`numpy.linalg.LinAlgError` where ``lu_factor`` issues a ``LinAlgWarning``, and a non-finite ``a``
+    ValueError: no warning filter turns it into an error, for any change of the filters (``catch_warnings``)
+    empties every module's record of the warnings shown once per place, and a user's loop of solves showed its
+    warnings at every solve (tests/test_warning_once.py)."""
+    a1 = np.asarray_chkfinite(a)
+    if a1.size == 0:
+        return np.empty_like(a1), np.arange(0, dtype=np.int32)
+    getrf, = sla.get_lapack_funcs(("getrf",), (a1,))
+    lu_, piv, info = getrf(a1, overwrite_a=overwrite_a)
+    if info < 0:
+        raise ValueError(f"illegal value in argument {-info} of LAPACK's getrf")
+    if info > 0:
+        raise np.linalg.LinAlgError(f"diagonal number {info} of U is exactly zero: singular matrix")
+    return lu_, piv
+
+
 class DenseLU:
     """LAPACK's LU with partial pivoting of a (sparse, nearly dense) matrix, with SuperLU's ``solve``; an exactly
     singular matrix raises RuntimeError, as SuperLU does."""
 
     def __init__(self, K):
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", sla.LinAlgWarning)
-            try:
-                self.factors = sla.lu_factor(K.toarray(), overwrite_a=True, check_finite=True)   # one n^2 copy
-            except (sla.LinAlgWarning, ValueError, np.linalg.LinAlgError) as exc:
-                raise RuntimeError(f"singular or not finite: {exc}") from exc
+        try:
+            self.factors = dense_lu(K.toarray(), overwrite_a=True)       # one n^2 copy
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            raise RuntimeError(f"singular or not finite: {exc}") from exc
 
     def solve(self, b):
         return sla.lu_solve(self.factors, b, check_finite=False)
@@ -172,13 +188,11 @@ class Factorization:
         try:                       # SPD when the Gamma dofs are displacements (the contact dofs)
             self._chol = sla.cho_factor(self.schur)
         except np.linalg.LinAlgError:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", sla.LinAlgWarning)
-                try:
-                    self._lu = sla.lu_factor(self.schur)
-                except (sla.LinAlgWarning, ValueError) as exc:
-                    raise SolverError(f"the Schur complement on the {len(gamma)} contact dofs from {self.name} "
-                                      f"is singular: {exc}") from exc
+            try:
+                self._lu = dense_lu(self.schur)
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                raise SolverError(f"the Schur complement on the {len(gamma)} contact dofs from {self.name} "
+                                  f"is singular: {exc}") from exc
 
     @property
     def cholesky(self):

@@ -76,9 +76,7 @@ def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mappin
     if solver == "CLARABEL":
         options = {**CLARABEL, **options}
     try:
-        with warnings.catch_warnings():     # the status is recorded in SolveInfo and the checks say what holds
-            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-            problem.solve(solver=solver, verbose=verbose, **options)
+        _solve(problem, solver, verbose, options)
     except cp.error.SolverError as exc:
         raise SolverError(f"{solver} failed: {exc}") from exc
     except Exception as exc:  # e.g. an option the solver refuses: TypeError, ValueError, OverflowError
@@ -88,6 +86,38 @@ def run_program(problem: cp.Problem, solver: str, verbose: bool, options: Mappin
         raise SolverError(f"{solver} ended with status {problem.status!r}; no solution to read back"
                           + STATUS_HINTS.get(problem.status, ""))
     return int(getattr(problem.solver_stats, "num_iters", None) or 0)
+
+
+_SOLVE_KEYWORDS = ("solver_verbose", "solver_path", "bibtex", "nlp")
+"""Keywords of CVXPY's ``Problem.solve`` not in :data:`~cvxcontact.backends.options.RESERVED` (which refuses the
+others): :func:`_solve` passes them to ``problem.solve``."""
+
+
+def _solve(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str, object]) -> None:
+    """``problem.solve(solver=solver, verbose=verbose, **options)`` without CVXPY's warning "Solution may be
+    inaccurate" (the status is recorded in SolveInfo and the checks say what holds), and without changing the
+    warning filters where the solver ends with a status CVXPY does not warn of: CVXPY's documented steps of a
+    solve (``get_problem_data``, the chain's ``solve_via_data``, ``unpack_results``), the status read from the
+    chain's inverse before ``unpack_results`` issues the warning, which a ``catch_warnings`` then silences.
+
+    Any change of the filters (``catch_warnings`` enter and exit) empties every module's record of the warnings
+    the "default" action showed once per place, and a user's loop of solves showed the package's warnings at
+    every solve (tests/test_warning_once.py). A verbose solve (CVXPY's own log), an option ``problem.solve``
+    reads itself (:data:`_SOLVE_KEYWORDS`, for solvers whose options are not checked) or a parameter without a
+    value (CVXPY's ParameterError) runs ``problem.solve`` as before."""
+    if verbose or any(k in options for k in _SOLVE_KEYWORDS) or any(p.value is None for p in problem.parameters()):
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+            problem.solve(solver=solver, verbose=verbose, **options)
+        return
+    data, chain, inverse = problem.get_problem_data(solver, solver_opts=dict(options))
+    raw = chain.solve_via_data(problem, data, True, False, dict(options))     # warm_start: problem.solve's default
+    if chain.invert(raw, inverse).status not in cp.settings.INACCURATE:
+        problem.unpack_results(raw, chain, inverse)
+        return
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+        problem.unpack_results(raw, chain, inverse)
 
 
 def timed_program(problem: cp.Problem, settings, timings: dict, options: Mapping[str, object] | None = None) -> int:

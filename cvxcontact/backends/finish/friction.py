@@ -86,11 +86,8 @@ before.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..factor import superlu
 from .declined import Declined, Stop
@@ -260,11 +257,9 @@ class _System:
         blocks = self._varying(state, frozen)
         key = b"".join(np.ascontiguousarray(a).tobytes() for a in blocks)
         if key not in self._factors:
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("error", spla.MatrixRankWarning)
-                    lu = superlu(self._assemble(*blocks))
-            except (RuntimeError, spla.MatrixRankWarning):
+            try:                   # SuperLU raises RuntimeError on a zero pivot (splu issues no warning)
+                lu = superlu(self._assemble(*blocks))
+            except RuntimeError:
                 lu = None
             self._factors[key] = lu
             while len(self._factors) > KEPT_FACTORS or sum(

@@ -30,8 +30,6 @@ the terms of that row's slack (eps = SIGN_TOL).
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 import scipy.linalg as sla
 from scipy.optimize import nnls
@@ -65,16 +63,14 @@ def _closed(W, d, active, kept=None):
     y = np.zeros(len(d))
     if active.any():
         at = np.flatnonzero(active)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", sla.LinAlgWarning)
-                c = None if kept is None else kept.get(active)
-                if c is None:     # W_AA by two takes (W[np.ix_(A, A)]'s entries, C order: a third of its time)
-                    c = sla.cho_factor(W.take(at, axis=0).take(at, axis=1), overwrite_a=True)
-                    if kept is not None:
-                        kept.put(active, c)
-                y[active] = sla.cho_solve(c, d[active])
-        except (np.linalg.LinAlgError, ValueError, sla.LinAlgWarning):
+        try:              # (cho_factor raises LinAlgError where W_AA is not positive definite; no filter needed)
+            c = None if kept is None else kept.get(active)
+            if c is None:     # W_AA by two takes (W[np.ix_(A, A)]'s entries, C order: a third of its time)
+                c = sla.cho_factor(W.take(at, axis=0).take(at, axis=1), overwrite_a=True)
+                if kept is not None:
+                    kept.put(active, c)
+            y[active] = sla.cho_solve(c, d[active])
+        except (np.linalg.LinAlgError, ValueError):
             return None
     return y
 

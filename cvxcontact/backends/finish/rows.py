@@ -4,12 +4,10 @@
 from __future__ import annotations
 
 import logging
-import warnings
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 from scipy.sparse import csgraph
 
 from ..factor import lu as dense_or_sparse_lu
@@ -453,11 +451,9 @@ def factored_rows(A, F, G, g, anchor) -> FactoredRows | None:
     rho = big / np.asarray(GQ.multiply(GQ).sum(axis=1)).ravel()
     K0 = (A + GQ.T @ sp.diags(rho) @ GQ).tocsc()
     n = K0.shape[0]
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", spla.MatrixRankWarning)
-            lu = dense_or_sparse_lu(K0, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
-                                    options={"SymmetricMode": True})
+    try:                   # a zero pivot: RuntimeError (SuperLU's splu and the dense LU issue no warning)
+        lu = dense_or_sparse_lu(K0, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                options={"SymmetricMode": True})
     except RuntimeError:
         return None
     v = np.cos(np.arange(n) * 0.7548776662466927) + 1.5          # fixed, no zero entry

@@ -164,7 +164,31 @@ def traced_steps(monkeypatch, amg) -> list:
     return seen
 
 
-def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch):
+def wrong_when(monkeypatch, amg, seen, wrong) -> list:
+    """The AMG route's Krylov solves whose tolerance ``wrong(rtol)`` picks return a wrong answer, the same whatever
+    the set (x = 0, y = -1: every row's sign fails and the next set is always the same); the others solve as before
+    (``amg.KrylovContact._system`` wrapped through ``monkeypatch``). Returns the (attempt, rtol) of each solve, filled
+    as the route runs them, the attempt being the number of runs of the steps ``seen`` (:func:`traced_steps`) ended
+    before it."""
+    tolerances, system = [], amg.KrylovContact._system
+
+    def maybe_wrong(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
+        tolerances.append((len(seen), rtol))
+        if wrong(rtol):
+            return np.zeros(self.n), -np.ones(self.m)
+        return system(self, active, F, g, x_start, rtol, verdict)
+
+    monkeypatch.setattr(amg.KrylovContact, "_system", maybe_wrong)
+    return tolerances
+
+
+def sparse_two_boxes(once):
+    """The sparse route's answer on ``two_boxes(6)`` (the PZT-5A box on aluminium), the reference of the AMG retry
+    tests: solved once per module (:func:`once`)."""
+    return once(("sparse", "two_boxes", 6), lambda: cc.solve(two_boxes(6), method="sparse"))
+
+
+def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch, once):
     """Set-picking (loose) solves that return a wrong answer, the same whatever the set (x = 0, y = -1: every
     row's sign fails and the next set is always the same), make the steps cycle on the PZT box on aluminium,
     and cycle again when retried on the tighter loose stages (``amg.RETRIES``); the route retries from the last
@@ -172,45 +196,30 @@ def test_steps_that_cycle_on_loose_solves_are_retried_on_tight_ones(monkeypatch)
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen, system = traced_steps(monkeypatch, amg), amg.KrylovContact._system
-
-    def wrong_when_loose(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
-        if rtol != amg.RTOL:
-            return np.zeros(self.n), -np.ones(self.m)
-        return system(self, active, F, g, x_start, rtol, verdict)
-
-    monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loose)
-    scene = two_boxes(6)
-    a = cc.solve(scene, method="amg")
+    seen = traced_steps(monkeypatch, amg)
+    wrong_when(monkeypatch, amg, seen, lambda rtol: rtol != amg.RTOL)
+    a = cc.solve(two_boxes(6), method="amg")
     assert seen == ["CYCLE", "CYCLE", "settled"] and a.info.method == "amg" and a.ok
-    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)             # measured 9.7e-11 (Krylov to 1e-10)
+    fields_agree(a, sparse_two_boxes(once), 1e-8)                        # measured 9.7e-11 (Krylov to 1e-10)
 
 
-def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose_stages(monkeypatch):
+def test_steps_that_cycle_on_the_loosest_solves_are_retried_on_the_tighter_loose_stages(monkeypatch, once):
     """Wrong answers from the two loosest stages only (1e-1, 1e-2; x = 0, y = -1, whatever the set) make the
     steps cycle; the retry runs the tighter loose stages (1e-4, 1e-6, ``amg.RETRIES``) before RTOL, not RTOL alone,
     settles there, and returns the sparse route's answer without handing over."""
     pytest.importorskip("pyamg")
     from cvxcontact.backends import amg
 
-    seen, tolerances, system = traced_steps(monkeypatch, amg), [], amg.KrylovContact._system
-
-    def wrong_when_loosest(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
-        tolerances.append((len(seen), rtol))
-        if rtol > amg.STEP_RTOLS[2]:
-            return np.zeros(self.n), -np.ones(self.m)
-        return system(self, active, F, g, x_start, rtol, verdict)
-
-    monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loosest)
-    scene = two_boxes(6)
-    a = cc.solve(scene, method="amg")
+    seen = traced_steps(monkeypatch, amg)
+    tolerances = wrong_when(monkeypatch, amg, seen, lambda rtol: rtol > amg.STEP_RTOLS[2])
+    a = cc.solve(two_boxes(6), method="amg")
     assert seen == ["CYCLE", "settled"] and a.info.method == "amg" and a.ok
     retry = [rtol for attempt, rtol in tolerances if attempt == 1]
     assert retry[0] == amg.STEP_RTOLS[2] and max(retry) <= amg.STEP_RTOLS[2] and amg.RTOL in retry
-    fields_agree(a, cc.solve(scene, method="sparse"), 2e-8)             # measured 1.3e-10 (5 kernels)
+    fields_agree(a, sparse_two_boxes(once), 2e-8)                        # measured 1.3e-10 (5 kernels)
 
 
-def test_the_retries_follow_a_changed_step_rtols(monkeypatch):
+def test_the_retries_follow_a_changed_step_rtols(monkeypatch, once):
     """``amg.RETRIES`` is read through ``amg.STEP_RTOLS`` when the steps run (it copied STEP_RTOLS at import
     before, so a changed STEP_RTOLS left the retries on the old stages): by default the stages of each attempt are
     STEP_RTOLS, STEP_RTOLS[2:], () as before; with STEP_RTOLS = (1e-2, 1e-5) and wrong answers from the stage
@@ -221,25 +230,17 @@ def test_the_retries_follow_a_changed_step_rtols(monkeypatch):
 
     assert [amg.loose_stages(c) for c in amg.RETRIES] == [amg.STEP_RTOLS, amg.STEP_RTOLS[2:], ()]
     monkeypatch.setattr(amg, "STEP_RTOLS", (1e-2, 1e-5))
-    seen, tolerances, system = traced_steps(monkeypatch, amg), [], amg.KrylovContact._system
-
-    def wrong_when_loosest(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
-        tolerances.append((len(seen), rtol))
-        if rtol > 1e-4:
-            return np.zeros(self.n), -np.ones(self.m)
-        return system(self, active, F, g, x_start, rtol, verdict)
-
-    monkeypatch.setattr(amg.KrylovContact, "_system", wrong_when_loosest)
-    scene = two_boxes(6)
-    a = cc.solve(scene, method="amg")
+    seen = traced_steps(monkeypatch, amg)
+    tolerances = wrong_when(monkeypatch, amg, seen, lambda rtol: rtol > 1e-4)
+    a = cc.solve(two_boxes(6), method="amg")
     assert seen == ["CYCLE", "settled"] and a.info.method == "amg" and a.ok
     assert {rtol for attempt, rtol in tolerances if attempt == 0} <= {1e-2, 1e-5, amg.RTOL}
     retry = [rtol for attempt, rtol in tolerances if attempt == 1]
     assert retry[0] == 1e-5 and set(retry) == {1e-5, amg.RTOL}, retry
-    fields_agree(a, cc.solve(scene, method="sparse"), 1e-8)    # measured u 6.7e-11, phi 5.7e-11, force 3.0e-11
+    fields_agree(a, sparse_two_boxes(once), 1e-8)              # measured u 6.7e-11, phi 5.7e-11, force 3.0e-11
 
 
-def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypatch, caplog):
+def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypatch, caplog, once):
     """Wrong answers at every tolerance, RTOL included (x = 0, y = -1, whatever the set), make the steps cycle on
     the first attempt and on each retry of ``amg.RETRIES``: the retries are bounded (one attempt each, then the
     cold start's), the route hands the problem to the sparse route, says why in the log, and the answer is the
@@ -250,17 +251,12 @@ def test_steps_that_cycle_on_every_retry_hand_over_to_the_sparse_route(monkeypat
     from cvxcontact.backends import amg
 
     seen = traced_steps(monkeypatch, amg)
-
-    def always_wrong(self, active, F, g, x_start, rtol=amg.RTOL, verdict=None):
-        return np.zeros(self.n), -np.ones(self.m)
-
-    monkeypatch.setattr(amg.KrylovContact, "_system", always_wrong)
-    scene = two_boxes(6)
+    wrong_when(monkeypatch, amg, seen, lambda rtol: True)
     with caplog.at_level(logging.INFO, logger="cvxcontact"):
-        a = cc.solve(scene, method="amg")
+        a = cc.solve(two_boxes(6), method="amg")
     assert seen == ["CYCLE"] * len(amg.RETRIES) and a.ok and a.info.method == "sparse"
     assert any("AMG route" in r.getMessage() and "cycle" in r.getMessage() for r in caplog.records)
-    fields_agree(a, cc.solve(scene, method="sparse"), 1e-12)            # measured 0 (the same factorised steps)
+    fields_agree(a, sparse_two_boxes(once), 1e-12)                       # measured 0 (the same factorised steps)
     assert a.info.handed_over.startswith("the AMG route's steps stopped: ") and "cycle" in a.info.handed_over
     assert a.report().splitlines()[1] == (f"  method           amg -> sparse, route: {Route.SPARSE_ACTIVE_SET} "
                                           f"(handed over: {a.info.handed_over})")

@@ -64,7 +64,7 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--reps", type=int, default=10)
     ap.add_argument("--ordering", default="keep", help="iparm[1]: keep, 0, 2 or 3")
-    ap.add_argument("--layer-ordering", type=int, default=3, help="PardisoSymmetric(ordering=) for layer / box")
+    ap.add_argument("--layer-ordering", type=int, default=2, help="PardisoSymmetric(ordering=) for layer / box")
     ap.add_argument("--cnr", default="keep", help="iparm[33]: keep or a number")
     args = ap.parse_args()
 
@@ -86,7 +86,11 @@ def main():
             hashes.append(hashlib.sha256(x.tobytes()).hexdigest())
     else:
         import cvxcontact as cc
-        from cvxcontact.backends.condensed import contact_dofs, quasi_definite, quasi_definite_rhs
+        from cvxcontact.backends.condensed import (
+            contact_dofs,
+            quasi_definite,
+            quasi_definite_rhs,
+        )
 
         block = cc.ContactSolver(thin_layer(200), method="sparse").problem.blocks[0]
         S, _ = quasi_definite(block)

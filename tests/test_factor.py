@@ -14,7 +14,7 @@ import cvxcontact as cc
 from cvxcontact.apps.demo import thin_layer, two_blocks
 from cvxcontact.backends import factor
 from cvxcontact.backends import sparse as sparse_backend
-from cvxcontact.backends.condensed import condense, quasi_definite
+from cvxcontact.backends.condensed import condense, contact_dofs, quasi_definite
 from cvxcontact.discrete import Block, units
 from cvxcontact.errors import CvxContactError, SolverError
 from cvxcontact.fem import p2
@@ -138,6 +138,39 @@ def test_pardiso_on_a_random_quasi_definite_matrix_with_threads():
     f.release()
     assert not f._finalizer.alive
     f.release()                                            # idempotent
+
+
+@needs_pardiso
+def test_pardiso_gives_one_input_the_same_bits_run_after_run_on_two_threads():
+    """Each PARDISO handle runs in oneMKL's reproducible mode (iparm[33] = its thread count): on 2 threads, six new
+    handles on thin_layer(200)'s K(A) (the sparse route's way: analysed on the bonded values, a numeric factorisation
+    of K(A), a single right-hand side solved) give the same bits, and so do six condensations of its first body
+    (Sigma, a forward and a backward sweep). Without it the single right-hand-side solves gave 3 to 4 distinct
+    answers in 6 (benchmarks/pardiso_cnr.py). The answers solve their systems: componentwise backward errors
+    measured 1.4e-14 to 1.6e-14 (K(A)) and 6.5e-15 to 9.8e-15 (S) under the five kernel sets and MKL_CBWR=COMPATIBLE;
+    bound 5e-12 (>= 310x)."""
+    problem = cc.ContactSolver(thin_layer(200), method="sparse").problem
+    sc = sparse_backend.SparseContact(list(problem.blocks), problem.E)
+    rng = np.random.default_rng(5)
+    moves = np.asarray(abs(sc.G).sum(axis=1)).ravel() > 0
+    K0, K = sc.matrix(moves), sc.matrix(moves & (rng.random(sc.m) < 0.6))
+    b = rng.standard_normal(K.shape[0])
+    S, _ = quasi_definite(problem.blocks[0])
+    gamma = contact_dofs(problem.blocks[0])
+    F = rng.standard_normal(S.shape[0])
+    mixed, condensed = set(), set()
+    for _ in range(6):
+        h = factor.PardisoSymmetric(K, threads=2).analyse(K0)
+        x = h.factor(K).solve(b)
+        h.release()
+        mixed.add(x.tobytes())
+        f = factor.factorize(S, gamma, "pardiso", threads=2)
+        y = f.solve(F)
+        condensed.add(f.schur.tobytes() + y.tobytes())
+        f.release()
+    assert len(mixed) == 1 and len(condensed) == 1
+    backward = [np.max(abs(M @ z - r) / (abs(M) @ abs(z) + abs(r))) for M, z, r in ((K, x, b), (S, y, F))]
+    assert max(backward) < 5e-12
 
 
 @needs_pardiso

@@ -40,9 +40,6 @@ def test_the_set_the_columns_predict_is_factorised_for_itself_and_gives_the_same
     if factorization == "pardiso" and not factor_module.pardiso_available():
         pytest.skip("Intel oneMKL PARDISO not installed (the 'pardiso' extra)")
     blocks, E, F, g = layer200
-    # PARDISO on several threads factorises one matrix to different bits from run to run (measured: 8 of 12 runs
-    # of this test failed on 2 threads, 0 of 12 on one); the claim is about the path, so one thread.
-    monkeypatch.setenv("MKL_NUM_THREADS", "1")
     last, solve_on = SparseContact._last, SparseContact._solve_on
     runs = {}
     for mode in ("predicted", "off"):

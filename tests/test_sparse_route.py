@@ -704,7 +704,7 @@ def test_pardiso_refuses_another_pattern_with_the_same_count_of_entries(layer):
 def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the_other_orders(monkeypatch):
     """On a slender interface (thin_layer(400): 681 rows, 1.16 n^(2/3)) the route's PARDISO handle is analysed in
     minimum degree order (iparm[1] = 0) and kept (its fill below SLENDER_FILL); where the fill is over the bound
-    (SLENDER_FILL lowered to 0) it is released and the analysis made in nested dissection (3). Both reach the
+    (SLENDER_FILL lowered to 0) it is released and the analysis made in nested dissection (2). Both reach the
     active set and fields of SciPy's SuperLU on the route's own order (an independent factorisation); a bulky
     interface (two 3D boxes, 49 rows, 0.6 n^(2/3)) is analysed in nested dissection alone. A bad order is a typed
     error."""
@@ -728,7 +728,7 @@ def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the
     monkeypatch.setattr(sparse_mod, "SLENDER_FILL", 0.0)
     orders.clear()
     metis = cc.solve(scene, method="sparse", factorization="pardiso")
-    assert orders == [0, 3] and metis.ok
+    assert orders == [0, 2] and metis.ok
     for sol in (amd, metis):
         assert np.array_equal(sol.contact.active, ref.contact.active)
         # measured (default, Prescott, Sandybridge kernels; every answer from a factor of K(A) itself): u and phi
@@ -737,11 +737,11 @@ def test_a_slender_interface_is_analysed_in_minimum_degree_and_its_answer_is_the
         # from an independent pivoted LU of K(A) in two runs of one process.)
         fields_agree(sol, ref, 1e-10, force_tol=3e-9)
     orders.clear()
-    assert cc.solve(two_boxes(6), method="sparse", factorization="pardiso").ok and set(orders) == {3}
+    assert cc.solve(two_boxes(6), method="sparse", factorization="pardiso").ok and set(orders) == {2}
     small = cc.ContactSolver(thin_layer(8)).problem
     sc = sparse_mod.SparseContact(list(small.blocks), small.E)
     K = sc.matrix(np.ones(sc.m, dtype=bool))
-    for bad in (1, True, "amd"):
+    for bad in (1, 3, True, "amd"):          # (3, parallel METIS: not reproducible)
         with pytest.raises(cc.SolverError, match="ordering must be one of"):
             Handle(K, ordering=bad)
 

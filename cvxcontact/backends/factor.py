@@ -22,7 +22,9 @@ and full solves x = S^{-1} b. :func:`factorize` gives both through one adapter:
              factorisation phase returns Sigma densely and factorises S_II only. A full solve is the
              partial forward sweep (phase 331, whose Gamma part is the reduced right-hand side
              r = b_G - S_GI S_II^{-1} b_I), a dense Cholesky solve v = Sigma^{-1} r, and the partial
-             backward sweep (phase 333) with x_G = v, giving x_I = S_II^{-1} (b_I - S_IG v).
+             backward sweep (phase 333) with x_G = v, giving x_I = S_II^{-1} (b_I - S_IG v). Every
+             PARDISO handle runs in oneMKL's reproducible mode (iparm[33] = its thread count,
+             :func:`_cnr_threads`): one input gives one answer, bit for bit, run after run at a thread count.
 ``auto``     ``pardiso`` if its library loads, else ``superlu``.
 
 ``libmkl_rt`` is looked for in the environment's ``lib`` (where the ``mkl`` wheel puts it; ``Library/bin``
@@ -67,9 +69,9 @@ entries on thin_layer(1500)'s bonded system against 5.5e6 with COLAMD and partia
 
 PARDISO_INSTALL = 'pip install "cvxcontact[pardiso]"'
 
-PARDISO_ORDERINGS = (3, 0)
-"""The fill-reducing orders :class:`PardisoSymmetric` takes (PARDISO's iparm[1]): 3 parallel nested dissection
-(METIS), 0 minimum degree (AMD)."""
+PARDISO_ORDERINGS = (2, 0)
+"""The fill-reducing orders :class:`PardisoSymmetric` takes (PARDISO's iparm[1]): 2 nested dissection (METIS), 0
+minimum degree (AMD). Not 3, METIS run in parallel: it keeps PARDISO from its reproducible mode (:func:`_cnr_threads`)."""
 
 
 DENSE_FILL = 0.1
@@ -363,6 +365,9 @@ def _load():
             if hasattr(lib, "MKL_Set_Num_Threads_Local"):      # else MKL's own setting is used
                 lib.MKL_Set_Num_Threads_Local.restype = ctypes.c_int
                 lib.MKL_Set_Num_Threads_Local.argtypes = [ctypes.c_int]
+            if hasattr(lib, "MKL_Get_Max_Threads"):
+                lib.MKL_Get_Max_Threads.restype = ctypes.c_int
+                lib.MKL_Get_Max_Threads.argtypes = []
             _LIB = lib
             return _LIB
         _LIB_ERROR = "libmkl_rt (Intel oneMKL) was not found"
@@ -399,6 +404,17 @@ def _threads(threads):
         if n > 0:
             return n
     return 0
+
+
+def _cnr_threads(lib, threads: int) -> int:
+    """PARDISO's iparm[33] for a call on ``threads`` MKL threads (0: MKL's own count, asked now): that count, which
+    puts PARDISO in its conditional numerical reproducibility mode (CNR): one input, one answer bit for bit, run
+    after run at that thread count on one machine. Without it, on 2 threads, the single right-hand-side solves
+    (phase 33) of one factor gave different bits from run to run (benchmarks/pardiso_cnr.py: 3 to 4 distinct answers
+    in 6 runs of thin_layer(200)'s K(A); 1 with CNR). CNR needs the sequential METIS order (iparm[1] = 2, not 3)."""
+    if threads <= 0 and hasattr(lib, "MKL_Get_Max_Threads"):
+        threads = lib.MKL_Get_Max_Threads()
+    return max(int(threads), 1)
 
 
 _ERRORS = {-1: "input inconsistent", -2: "not enough memory", -3: "reordering problem",
@@ -453,7 +469,7 @@ class PardisoFactorization(Factorization):
         self._perm[gamma] = 1
         ip = self._iparm
         ip[0] = 1                  # iparm set here
-        ip[1] = 3                  # parallel nested dissection (METIS) for the interior
+        ip[1] = 2                  # nested dissection (METIS) for the interior; sequential, as CNR needs (_cnr_threads)
         ip[7] = 0                  # no iterative refinement: the sweeps are exact triangular solves
         ip[9] = 13                 # pivot perturbation 1e-13 (any perturbation is refused below)
         ip[10] = 0                 # no scaling and no weighted matching: S is quasi-definite
@@ -479,6 +495,7 @@ class PardisoFactorization(Factorization):
         err = ctypes.c_int32(0)
         local = self._nthreads and hasattr(lib, "MKL_Set_Num_Threads_Local")
         old = lib.MKL_Set_Num_Threads_Local(self._nthreads) if local else None
+        self._iparm[33] = _cnr_threads(lib, self._nthreads if local else 0)
         try:
             lib.pardiso(self._pt.ctypes.data, i(1), i(1), i(-2), i(phase), i(self.n), self._a.ctypes.data,
                         self._ia.ctypes.data, self._ja.ctypes.data, self._perm.ctypes.data, i(nrhs),
@@ -535,7 +552,7 @@ class PardisoInterior:
         self._ja = np.ascontiguousarray(S_upper.indices, dtype=np.int32)
         _open(self, lib, S_upper.shape[0], threads)
         ip = self._iparm
-        ip[0], ip[1], ip[7], ip[9], ip[10], ip[12], ip[17], ip[26], ip[34] = 1, 3, 0, 13, 0, 0, 0, 0, 1
+        ip[0], ip[1], ip[7], ip[9], ip[10], ip[12], ip[17], ip[26], ip[34] = 1, 2, 0, 13, 0, 0, 0, 0, 1
         try:
             self._call(12, None, None)
             if ip[13] > 0:
@@ -569,17 +586,17 @@ class PardisoSymmetric:
     returned in float64): a factor of K to about 6e-8 relative, which the caller refines against K in double
     (measured, the Hencky route's systems at 103,041 unknowns, one thread: a factorisation 0.095 s against 0.136 s,
     a solve 0.013 s against 0.024 s, residual 1e-7 after one solve and 2e-16 after three refinements).
-    ``ordering``: PARDISO's fill-reducing order (iparm[1]), one of :data:`PARDISO_ORDERINGS`: 3 its parallel nested
-    dissection (METIS, the default), 0 minimum degree (AMD; cheaper to analyse, and on a slender 2D layer less fill:
+    ``ordering``: PARDISO's fill-reducing order (iparm[1]), one of :data:`PARDISO_ORDERINGS`: 2 its nested
+    dissection (METIS, the default; sequential, as reproducibility needs: :func:`_cnr_threads`), 0 minimum degree (AMD; cheaper to analyse, and on a slender 2D layer less fill:
     :data:`~cvxcontact.backends.sparse.SLENDER_FILL`)."""
 
-    def __init__(self, K, threads=None, single: bool = False, ordering: int = 3):
+    def __init__(self, K, threads=None, single: bool = False, ordering: int = 2):
         lib = _load()
         if lib is None:
             raise SolverError(f'factorization="pardiso": {_LIB_ERROR}; {PARDISO_INSTALL}')
         if isinstance(ordering, bool) or ordering not in PARDISO_ORDERINGS:
-            raise SolverError(f"PardisoSymmetric: ordering must be one of {PARDISO_ORDERINGS} (PARDISO's iparm[1]: 3 "
-                              f"nested dissection, 0 minimum degree), got {ordering!r}")
+            raise SolverError(f"PardisoSymmetric: ordering must be one of {PARDISO_ORDERINGS} (PARDISO's iparm[1]: 2 "
+                              f"nested dissection, 0 minimum degree; not 3, which is not reproducible), got {ordering!r}")
         K = K if sp.issparse(K) and K.format == "csc" else sp.csc_matrix(K)     # (a wrapper would view its arrays)
         n = K.shape[0]
         if not K.has_sorted_indices:       # factor() reads the values of every later K in this index order
@@ -601,7 +618,7 @@ class PardisoSymmetric:
         _open(self, lib, n, threads)
         ip = self._iparm
         ip[0] = 1
-        ip[1] = int(ordering)      # 3: parallel nested dissection (METIS); 0: minimum degree (AMD)
+        ip[1] = int(ordering)      # 2: nested dissection (METIS); 0: minimum degree (AMD)
         ip[7] = 0                  # the caller refines
         ip[9] = 8                  # pivot perturbation 1e-8 (counted in ``perturbed``)
         ip[10] = 1                 # symmetric scaling and weighted matching: saddle-point rows

@@ -98,7 +98,7 @@ registry's SPARSE_SLENDER (m > 3 sqrt(n)) does not separate them: the 3D boxes a
 
 SLENDER_FILL = 5.0
 """On a slender interface (:data:`SLENDER_FACE`, :meth:`SparseContact._analysed`) PARDISO's analysis is made in
-minimum degree order (AMD, iparm[1] = 0) rather than nested dissection (METIS, 3), and kept where its factor holds at
+minimum degree order (AMD, iparm[1] = 0) rather than nested dissection (METIS, 2), and kept where its factor holds at
 most this many times the entries of K's upper triangle (benchmarks/longif_orderings.py; one thread; analysis /
 numeric factorisation CPU s, factor Mflop, fill, METIS against AMD): thin_layer(3000) 0.41 / 0.154 / 292 / 4.6
 against 0.23 / 0.129 / 161 / 3.8, thin_layer(1000) 0.135 / 0.049 / 90 / 4.5 against 0.068 / 0.040 / 52 / 3.8,

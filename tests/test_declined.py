@@ -110,7 +110,7 @@ def test_a_declined_finish_reaches_info_and_report(monkeypatch):
 
     scene = two_blocks()
     monkeypatch.setattr(signorini, "solve_lcp",
-                        lambda W, d, start=None, kept=None: Declined(Stop.CYCLE, "cycled (a test)"))
+                        lambda W, d, start=None, kept=None, implied=None: Declined(Stop.CYCLE, "cycled (a test)"))
     with pytest.warns(cc.ResidualWarning, match=r"was declined \(cycled \(a test\)\); the interior-point answer "
                                                 r"is kept \(sol.polished is False\)"):
         sol = cc.solve(scene, method="condensed")

@@ -105,15 +105,19 @@ def newton_finish(problem, raw, timings):
     return raw
 
 
-def interface_finish(compliance, d, start, timings, dependent=None, max_iter=None):
+def interface_finish(compliance, d, start, timings, dependent=None, max_iter=None, g=None):
     """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or why it declined
-    (a :class:`~cvxcontact.backends.finish.declined.Declined`).
+    (a :class:`~cvxcontact.backends.finish.declined.Declined`). ``g``: the rows' gaps (scaled), which order the
+    rows of several obstacles at one node: a row a tighter parallel row implies is left open (its force 0,
+    :meth:`~cvxcontact.backends.condensed.Compliance.looser`, as on the sparse and AMG routes; closed beside
+    that row W_AA is singular).
     ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
     the finish of :func:`~cvxcontact.backends.finish.independent_interface` from the forces y0 instead, in at
     most ``max_iter`` Lawson-Hanson steps (None: its own bound)."""
     t0 = time.perf_counter()
     if dependent is None:
-        out = solve_lcp(compliance.W, d, start, kept=compliance.last_factor)
+        out = solve_lcp(compliance.W, d, start, kept=compliance.last_factor,
+                        implied=None if g is None else compliance.looser(g))
     else:
         v0, g, y0 = dependent
         res = independent_interface(compliance, v0, g, y0, start, max_iter=max_iter)
@@ -152,7 +156,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     W = reduction.W
-    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
+    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings, g=g)
     if isinstance(out, Declined):
         raw.declined = out
         return raw
@@ -192,7 +196,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and settings.polish and cache.active is not None
 
     def finish(start, y0, max_iter=None):
-        return interface_finish(compliance, d, start, timings, (v0, g, y0) if dependent else None, max_iter)
+        return interface_finish(compliance, d, start, timings, (v0, g, y0) if dependent else None, max_iter, g)
 
     # dependent rows: the previous forces start the finish, for at most WARM_STEPS steps, else the program
     out = finish(cache.active, cache.own.get("condensed forces", cache.active), WARM_STEPS) if warm else None

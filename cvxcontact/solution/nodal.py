@@ -104,9 +104,11 @@ def _assembled(problem, raw, tol: float, timings, checks_: dict, support, on) ->
     shift = problem.prescribed_jump        # [u_D nu] (the blocks' jumps act on the free unknowns only)
     jump = sum(b.jump @ uk for b, uk in zip(blocks, u)) + shift
     sizes = sum(np.abs(b.jump @ uk) for b, uk in zip(blocks, u)) + np.abs(shift)      # the terms of the jump
-    reach = max(float(sizes.max(initial=0.0)), float(np.abs(gap + shift).max(initial=0.0)),
-                *(float(np.abs(uk).max(initial=0.0)) for uk in u))          # the scene's displacement scale
-    closed = on | (gap + shift - jump <= tol * reach)          # each pair's contact closed, per node (sides.py)
+    reach = max(float(sizes.max(initial=0.0)), *(float(np.abs(uk).max(initial=0.0)) for uk in u))   # the bodies'
+    # displacement scale; per node with its own gap, not another row's: a floor 1000 m below, never touched, read
+    # a floor open by 3e-6 m under a strip raised above it (0.3 DELTA) closed at tol 1e-6 (its share of lambda_h)
+    scale = np.maximum(reach, np.abs(gap + shift))
+    closed = on | (gap + shift - jump <= tol * scale)          # each pair's contact closed, per node (sides.py)
     lam = side_multiplier(itf, Ety, compliant, closed)   # scaled; the Riesz representer in X_h (M lam = E^T y)
     for k, (b, s, blk, uk, pk) in enumerate(zip(scene.bodies, systems, blocks, u, phi)):
         modes = b.held_modes(nodes[k])                                        # bodies held by the contact only

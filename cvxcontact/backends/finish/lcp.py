@@ -174,18 +174,21 @@ def closed_solve(W, r, active, kept: LastFactor | None = None) -> np.ndarray:
     return z
 
 
-def _pdas(W, d, active, max_iter, kept=None):
+def _pdas(W, d, active, max_iter, kept=None, implied=None):
+    """The active-set steps of :func:`solve_lcp` from ``active``, the rows ``implied`` (bool per row, optional)
+    never closed: (y, active) or None."""
     w, _ = row_scales(W, d, np.zeros(len(d)))
     absW = np.abs(W)                                   # |W| for every step's row scales, formed once
+    closable = np.ones(len(d), dtype=bool) if implied is None else ~implied
 
     def step(active):
         y = _closed(W, d, active, kept)
         if y is None:
             return None
         slack = d - W @ y
-        return y, (None if _signs_hold(W, d, y, active, absW, slack) else y * w + slack > 0)
+        return y, (None if _signs_hold(W, d, y, active, absW, slack) else (y * w + slack > 0) & closable)
 
-    out = active_set_steps(step, active, max_iter)
+    out = active_set_steps(step, active & closable, max_iter)
     return None if isinstance(out, Declined) else out[:2]
 
 
@@ -201,7 +204,7 @@ def _least_squares_form(W, d):
         return L.T, sla.lstsq(L, d)[0]
 
 
-def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
+def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None, implied=None):
     """Solve the LCP of the module docstring exactly.
 
     Parameters
@@ -215,6 +218,13 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
         steps close on that set again, and replaced by the last one they factorise (the same answer either way).
         Only for a read-only ``W`` that owns its entries (as :attr:`Compliance.W
         <cvxcontact.backends.condensed.Compliance.W>`): a W that can be edited in place keeps no factor.
+    implied : (m,) bool ndarray, optional
+        Rows never closed (their force 0): the rows a tighter parallel row implies
+        (:meth:`Compliance.looser <cvxcontact.backends.condensed.Compliance.looser>`). W's row of such a row
+        repeats the tighter one's, so closing both makes W_AA singular, and the gaps differing, d is then not in
+        the range of W: the least-squares form of step 2 does not hold (it read a support whose closed rows were
+        open by 0.015 to 0.14 (scaled) where d was 1e-5: a floor, a strip raised above part of it and a
+        far floor 1 m below, 2D P1). Their slack is still checked for its sign.
 
     Returns
     -------
@@ -233,7 +243,7 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
             return Declined(Stop.NO_SOLUTION, "a row no unknown moves penetrates: no force can close it")
         keep = ~held
         out = solve_lcp(W[np.ix_(keep, keep)], d[keep], None if active is None else np.asarray(active)[keep],
-                        max_iter)
+                        max_iter, implied=None if implied is None else np.asarray(implied, dtype=bool)[keep])
         if isinstance(out, Declined):
             return out
         y, act = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
@@ -246,20 +256,23 @@ def solve_lcp(W, d, active=None, max_iter=30, kept: LastFactor | None = None):
     if kept is not None and (editable or kept.owner is not W):    # another W, or one editable in place (its
         kept.owner, kept.active, kept.factor = (None if editable else W), None, None    # entries may have changed
         kept = None if editable else kept                          # under the kept factor): nothing kept applies
-    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter, kept)
+    implied = None if implied is None or not np.any(implied) else np.asarray(implied, dtype=bool)
+    out = _solve_equilibrated(D[:, None] * W * D[None, :], D * d, active, max_iter, kept, implied)
     return out if isinstance(out, Declined) else (D * out[0], out[1], out[2])
 
 
-def _solve_equilibrated(W, d, active, max_iter, kept=None):
+def _solve_equilibrated(W, d, active, max_iter, kept=None, implied=None):
     start = (d > 0) if active is None else np.asarray(active, dtype=bool)
-    out = _pdas(W, d, start, max_iter, kept)
+    out = _pdas(W, d, start, max_iter, kept, implied)
     if out is not None:
         return out[0], out[1], "active set"
-    A, b = _least_squares_form(W, d)
-    y, _ = nnls(A, b, maxiter=50 * len(d))
+    F = slice(None) if implied is None else ~implied            # the rows that may close
+    A, b = _least_squares_form(W if implied is None else W[np.ix_(F, F)], d[F])
+    y = np.zeros(len(d))
+    y[F], _ = nnls(A, b, maxiter=50 * len(b))
     w, S = row_scales(W, d, y)
     support = y * w > SIGN_TOL * S
-    out = _pdas(W, d, support, max_iter, kept)
+    out = _pdas(W, d, support, max_iter, kept, implied)
     if out is not None:
         return out[0], out[1], "active set after NNLS"
     if _signs_hold(W, d, y, support):

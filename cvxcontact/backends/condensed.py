@@ -32,6 +32,7 @@ import scipy.sparse.linalg as spla
 from ..errors import SolverError, user_stacklevel
 from .factor import Factorization, Forward, factorize, resolve
 from .finish.lcp import LastFactor
+from .parallel import ParallelRows
 from .released import Released
 
 __all__ = ["CondensedBody", "Compliance", "InterfaceModel", "InterfaceSystem", "condense", "contact_dofs", "node_order",
@@ -248,7 +249,7 @@ class Compliance:
     def __init__(self, bodies, E):
         self.rows = [sp.csr_matrix(E @ b.jump) for b in bodies]
         self._factors = [_sigma_cholesky(b) for b in bodies]
-        self._B = self._W = self._stacked = None
+        self._B = self._W = self._stacked = self._parallel = None
         m = E.shape[0]
         self.where = np.full(m, -1)          # each row's position in the kept block, -1 if not kept (:meth:`keep`)
         self.count = 0
@@ -277,6 +278,15 @@ class Compliance:
         if self._stacked is None:
             self._stacked = sp.hstack(self.rows, format="csr")
         return self._stacked
+
+    @property
+    def parallel(self) -> ParallelRows:
+        """The parallel groups of the rows of :attr:`stacked` (the rows of several obstacles at one node with one
+        normal), found on first use and kept for the geometry: the exact finish leaves open the rows a tighter
+        parallel row implies (:meth:`ParallelRows.looser <cvxcontact.backends.parallel.ParallelRows.looser>`)."""
+        if self._parallel is None:
+            self._parallel = ParallelRows(self.stacked)
+        return self._parallel
 
     def columns(self, rows) -> np.ndarray:
         """The columns ``rows`` of every body's B_l, stacked: Sigma^{-1} R_rows^T over all Gamma dofs (the

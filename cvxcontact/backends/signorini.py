@@ -105,15 +105,29 @@ def newton_finish(problem, raw, timings):
     return raw
 
 
-def interface_finish(compliance, d, start, timings, dependent=None, max_iter=None):
+def interface_finish(compliance, d, start, timings, g, dependent=None, max_iter=None):
     """Exact LCP solution (y, active, finish) on the interface from the active set ``start``, or why it declined
-    (a :class:`~cvxcontact.backends.finish.declined.Declined`).
+    (a :class:`~cvxcontact.backends.finish.declined.Declined`); ``g`` the rows' gaps (m).
+    A row a tighter parallel row implies under ``g`` (:func:`looser_rows`: the rows of two obstacles at one node
+    with one normal; of equal gaps all but the first) stays open, its force 0, as on the sparse route: closed
+    beside the row that implies it, W_AA is singular (two rows of W equal), the active-set steps meet that
+    singular system and the answer would rest on the Lawson-Hanson fallback (a 2D P2 block on a floor and a
+    kinked obstacle both closed at x = 0.3, the floor listed first: a wrong answer, ok=False, tests/test_p2_two_runs.py).
     ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
     the finish of :func:`~cvxcontact.backends.finish.independent_interface` from the forces y0 instead, in at
     most ``max_iter`` Lawson-Hanson steps (None: its own bound)."""
     t0 = time.perf_counter()
     if dependent is None:
-        out = solve_lcp(compliance.W, d, start, kept=compliance.last_factor)
+        implied = compliance.parallel.looser(g)
+        if implied.any():
+            keep = ~implied
+            out = solve_lcp(compliance.W[np.ix_(keep, keep)], d[keep], np.asarray(start, dtype=bool)[keep])
+            if not isinstance(out, Declined):
+                y, active = np.zeros(len(d)), np.zeros(len(d), dtype=bool)
+                y[keep], active[keep] = out[0], out[1]
+                out = (y, active, out[2])
+        else:
+            out = solve_lcp(compliance.W, d, start, kept=compliance.last_factor)
     else:
         v0, g, y0 = dependent
         res = independent_interface(compliance, v0, g, y0, start, max_iter=max_iter)
@@ -152,7 +166,7 @@ def full(problem, cache, settings, timings) -> RawResult:
     reduction = condensation(problem, cache, settings, timings)
     _, _, d = reduction.apply(problem, timings)
     W = reduction.W
-    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings)
+    out = interface_finish(reduction.compliance, d, lcp_start(W, d, raw.y, slack), timings, g)
     if isinstance(out, Declined):
         raw.declined = out
         return raw
@@ -192,7 +206,7 @@ def condensed(problem, cache, settings, timings) -> RawResult:
     warm = settings.warm_start and settings.polish and cache.active is not None
 
     def finish(start, y0, max_iter=None):
-        return interface_finish(compliance, d, start, timings, (v0, g, y0) if dependent else None, max_iter)
+        return interface_finish(compliance, d, start, timings, g, (v0, g, y0) if dependent else None, max_iter)
 
     # dependent rows: the previous forces start the finish, for at most WARM_STEPS steps, else the program
     out = finish(cache.active, cache.own.get("condensed forces", cache.active), WARM_STEPS) if warm else None

@@ -2,8 +2,9 @@
 floor and a strip raised above part of it) are one row of G repeated, each with its own gap (docs/architecture.md,
 "The sparse route"). Closed together they make a mixed system (26) singular: two equal rows with equal gaps leave
 the split of the node's force between them free, two of different gaps cannot both close. Each route reads them
-here: the sparse and AMG routes leave the looser rows open (:func:`looser_rows`, the groups once per geometry:
-:class:`ParallelRows`), the exact solve of (26) on an active set
+here: the sparse and AMG routes and the interface LCP's finish (condensed, full:
+:func:`~cvxcontact.backends.signorini.interface_finish`) leave the looser rows open (:func:`looser_rows`, the groups
+once per geometry: :class:`ParallelRows`), the exact solve of (26) on an active set
 closes each repeated row once (:func:`repeated_rows`, :func:`~cvxcontact.backends.full.mixed_kkt`)."""
 
 from __future__ import annotations

@@ -129,3 +129,23 @@ def test_a_floor_whose_reach_starts_inside_a_segment_is_reported(nx, segment):
     assert depth > 1e-9                                  # measured 1.25e-7, 2.1e-8 m (nx = 24, 48)
     reported = float(re.search(r"midpoint in by ([0-9.e+-]+) m", held[0]).group(1))
     assert abs(reported - depth) <= 5e-3 * depth         # the message's 3 digits
+
+
+def test_a_lawson_hanson_answer_with_closed_rows_open_is_not_accepted(monkeypatch):
+    """Without the parallel rows left open (``ParallelRows.looser`` patched to imply nothing: the finish before the
+    fix), the floor-first scene at 10 cells closes both equal rows at x = 0.3, the active-set steps meet W_AA singular
+    and the Lawson-Hanson fallback answers on a numerically singular W: its "closed" rows were open or penetrated
+    (the floor's at x = 0.35 by 5e-7 m, accepted as "NNLS"). Such an answer is now declined (the interior point kept,
+    ok=False, no row penetrated beyond the interior point's accuracy), or, if finished, its closed rows are closed."""
+    from cvxcontact.backends import parallel
+
+    monkeypatch.setattr(parallel.ParallelRows, "looser", lambda self, g: np.zeros(self.m, dtype=bool))
+    sol, _ = _solve(_kink(10, False), "condensed")
+    if sol.info.polished:          # measured: Nehalem, Prescott, Sandybridge finish (ok), rows in by <= 5.6e-22 m
+        for c in sol.contacts:
+            slack = np.asarray(c.gap) - np.asarray(c.jump)
+            assert slack.min() >= -1e-12 * DELTA
+    else:
+        assert sol.info.declined is not None and not sol.ok
+        # measured: default and Haswell decline; the interior point's rows in by <= -2.4e-14 m (none in)
+        assert max((np.asarray(c.jump) - np.asarray(c.gap)).max() for c in sol.contacts) <= 1e-3 * DELTA

@@ -29,7 +29,7 @@ from .solution.bound import error_bound
 from .solution.estimate import estimate as estimate_error
 from .solution.info import Route, SolveInfo, Status
 from .solution.readback import read_back
-from .solution.resolution import rowless, unresolved
+from .solution.resolution import rowless, unheld, unresolved
 from .solution.solution import ContactResult, Solution
 
 __all__ = ["solve", "ContactSolver", "Solution", "ContactResult", "SolveInfo", "Status", "Route", "DEFAULT_TOL",
@@ -321,7 +321,7 @@ class ContactSolver:
         sol.info = replace(sol.info, timings=timings)
         log.debug("stage timings (s): %s", ", ".join(f"{k} {v:.4g}" for k, v in timings.items()))
         self._warn(sol, raw)
-        for message in rowless(sol):
+        for message in rowless(sol) + unheld(sol):
             warnings.warn(message, ResolutionWarning, stacklevel=user_stacklevel())
         if self.estimate and not unestimated:
             for message in unresolved(sol):

@@ -110,7 +110,9 @@ def interface_finish(compliance, d, start, timings, dependent=None, max_iter=Non
     (a :class:`~cvxcontact.backends.finish.declined.Declined`). ``g``: the rows' gaps (scaled), which order the
     rows of several obstacles at one node: a row a tighter parallel row implies is left open (its force 0,
     :meth:`~cvxcontact.backends.condensed.Compliance.looser`, as on the sparse and AMG routes; closed beside
-    that row W_AA is singular).
+    that row W_AA is singular, the steps fail and the answer would rest on the Lawson-Hanson fallback: a 2D P2
+    block on a floor and a kinked obstacle both closed at x = 0.3, the floor listed first, read ok=False,
+    tests/test_p2_two_runs.py).
     ``dependent``: (v0, g, y0) for rows that may be linearly dependent (W singular, :func:`dependent_rows`):
     the finish of :func:`~cvxcontact.backends.finish.independent_interface` from the forces y0 instead, in at
     most ``max_iter`` Lawson-Hanson steps (None: its own bound)."""

@@ -39,9 +39,14 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..contact.sides import pair_sides
+from ..geometry.quadratic import P2Nodes
 from .solution import pair_label
 
-__all__ = ["MAX_ASPECT", "MIN_CELLS", "aspect_ratios", "rowless", "unresolved", "zone_cells"]
+__all__ = ["MAX_ASPECT", "MIN_CELLS", "UNHELD_TOL", "aspect_ratios", "rowless", "unheld", "unresolved", "zone_cells"]
+
+UNHELD_TOL = 1e-9
+"""A P2 midpoint no row holds (:func:`unheld`) is reported where it penetrates the obstacle it reaches by more than
+this times the body's largest displacement (rounding is some 1e-16 of it)."""
 
 MIN_CELLS = 4
 """The fewest cells of a body (2D: contact faces, 3D: face sizes across the zone) that must span a contact
@@ -277,3 +282,57 @@ def _too_few(head, z, name, part, dim, trace) -> str:
             f"faces of {name} (fewer than {MIN_CELLS}; faces of about {z.h:.3g} m{trace.spacing}): "
             f"its pressure is not resolved. Refine the contact face there: faces of at most {need:.3g} m "
             f"across the zone (e.g. refine the mesh towards it, or more cells along {part!r}).")
+
+
+def unheld(sol) -> list[str]:
+    """The messages of :class:`~cvxcontact.errors.ResolutionWarning` for the P2 midpoints of a 2D body's contact
+    part that reach a rigid obstacle (its distance finite there) which no row of that pair holds, and which the
+    answer pushes into that obstacle (by more than :data:`UNHELD_TOL` of the body's largest displacement). A 2D P2
+    pair reads the reach at the vertices: its X_h is the P2 line of its run of reaching vertices, whole segments
+    (docs/formulation.md, "Rigid obstacles"), so a segment with one vertex out of reach is not in it, though its
+    midpoint may lie over the obstacle: two obstacles meeting inside a segment (neither run holds it), or an
+    obstacle whose reach starts inside the segment beside another's run (only the other's rows hold it). Nothing
+    of K_h(Sigma_h) keeps the midpoint out of that obstacle, the checks pass (the discrete problem is solved) and
+    the answer is not the one obstacle's of the same surface. Independent of the estimate."""
+    out = []
+    if sol.scene.dim != 2 or sol.degree != 2:
+        return out
+    nodes = {}
+    for i, pair in enumerate(sol.scene.contacts):
+        itf = sol.scene.interfaces[i]
+        if not pair.rigid or not getattr(itf, "rigid", False):
+            continue
+        trace = itf.traces[0]
+        v, x = np.asarray(trace.nodes), np.asarray(trace.x, dtype=float)
+        if len(v) < 2:
+            continue
+        reached = np.zeros(len(v), dtype=bool)
+        reached[np.asarray(itf.reach)] = True
+        mid = 0.5 * (np.asarray(trace.points)[:-1] + np.asarray(trace.points)[1:])
+        d = np.asarray(itf.obstacle.distance(mid, itf.normal), dtype=float)
+        off = np.flatnonzero(np.isfinite(d) & ~(reached[:-1] & reached[1:]))      # over the obstacle, not in X_h
+        if not len(off):
+            continue
+        k = sol.scene.stack.members[i][0]
+        body = sol.scene.bodies[k]
+        if k not in nodes:
+            nodes[k] = P2Nodes(body.mesh)
+        u = np.asarray(sol.u[k], dtype=float)
+        at = nodes[k].midpoint(v[off], v[off + 1])
+        s = 0.5 * (x[off] + x[off + 1])
+        load = sol.scene.contacts[i].gap
+        g = np.asarray(load(s, np.full_like(s, itf.y)), dtype=float) + d[off]
+        over = u[at] @ np.asarray(itf.normal, dtype=float) - g
+        bad = over > UNHELD_TOL * max(float(np.abs(u).max(initial=0.0)), np.finfo(float).tiny)
+        if not bad.any():
+            continue
+        segs = "; ".join(f"s = {x[j]:.6g} to {x[j + 1]:.6g} m (midpoint in by {o:.3g} m)"
+                         for j, o in zip(off[bad], over[bad]))
+        out.append(f"contact[{i}] {pair_label(sol, i)}: the P2 midpoint of {int(bad.sum())} segment(s) of "
+                   f"{body.name}/{pair.part_a} lies over this obstacle but no row of the pair holds it (a 2D P2 "
+                   f"pair's rows are the P2 nodes of its run of reaching vertices, whole segments): {segs}. The "
+                   f"answer pushes it into the obstacle; the checks do not see it (it is not a row). Put a vertex "
+                   f"of {pair.part_a!r} where the obstacle's reach ends, or let the obstacle's distance be finite "
+                   f"up to the segment's far vertex (beside another obstacle there the rows are parallel and the "
+                   f"tighter holds), or use degree=1.")
+    return out

@@ -6,7 +6,9 @@ On the contact part of each side, R_F = sigma_h n + lambda_h n (eq. (8): sigma_n
 lambda_h the solution's multiplier, 0 beyond its support), h_F ||R_F||_F^2 / c_T; on each cell S of the contact
 mesh of a Signorini pair (2D: the merged segments; 3D: the elements of X_h, the overlay triangles or the faces
 against an obstacle) the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
-c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the cells of both sides. A friction law subtracts its tangential
+c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the cells of both sides (a side held by several obstacles: once on
+the side, lambda_h the pairs' summed and g - [u_h nu] the least over them; 2D :func:`_side_line_terms`, 3D
+:func:`_side_gap_terms`). A friction law subtracts its tangential
 traction t_h from R_F and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`).
 lambda_h is read where it lives: on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the
 pair's surface).
@@ -236,8 +238,8 @@ def contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """2D: on each side (body, contact part) h_E ||sigma_h n + sum_i (lambda_i n - t_i t)||^2 / c_T over the pairs
     i that hold the part (one, or several obstacles each reaching part of it; t_i a friction law's, the first body's
     and the opposite on the second), once per side; on each merged segment of a Signorini pair the
-    complementarity and the penetration (and the friction terms), shared by the cells of the sides (module
-    docstring)."""
+    complementarity and the penetration (a side held by several obstacles: once on the side,
+    :func:`_side_line_terms`) and the friction terms, shared by the cells of the sides (module docstring)."""
     scene = sol.scene
     held = held_sides(scene.stack)                                      # per side (k, part): [(pair, its side)]
     sided = _gap_sides(sol, held, signorini)     # sides whose complementarity is read once (_side_line_terms)

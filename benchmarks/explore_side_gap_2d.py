@@ -1,6 +1,7 @@
 """Exploration: the 2D complementarity of obstacles sharing one part, read pair by pair (the package) or once on the
 side (lambda_h summed over the pairs, g - [u_h nu] the least over the pairs at each node of the trace, as 3D's
-``contactestimate._side_gap_terms``; a prototype here, not shipped), against one obstacle of the same answer.
+``contactestimate._side_gap_terms``; the prototype of 2D's ``_side_line_terms``, which the package now reads: its
+"pair by pair" column is then the side's), against one obstacle of the same answer.
 
 Scenes (the 6 x 2 block of tests/reach_scenes.block2d under "sigma1", P1 and P2):
 

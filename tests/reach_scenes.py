@@ -125,10 +125,10 @@ def block_on_blocks2d(law=None, cuts=(0.4,), flip=False):
                                           cc.Contact(top, "bottom", low, "top", gap=-1e-5, law=law) for low in lows])
 
 
-def block2d(obstacles, nx=6):
-    """The ``nx`` x 2 steel block [0, 1] x [0, H] on rollers, pushed down by DELTA onto ``obstacles`` under its
-    bottom (one pair each)."""
-    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=nx, ny=2), STEEL, roller=["left", "right"],
+def block2d(obstacles, nx=6, cell="triangle"):
+    """The ``nx`` x 2 steel block [0, 1] x [0, H] (``cell`` "triangle" or "quad") on rollers, pushed down by DELTA
+    onto ``obstacles`` under its bottom (one pair each)."""
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=nx, ny=2, cell=cell), STEEL, roller=["left", "right"],
                    displacement={"top": (None, -DELTA)}, contact="bottom")
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 

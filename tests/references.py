@@ -10,7 +10,9 @@
 * :func:`true_slack`, :func:`slack_maximum` and :func:`check_argmax`: the true slack q_h - delta of a P2 element
   against a curved rigid obstacle from its definition, its maximum by dense sampling and zoomed grids, and the
   check of :meth:`cvxcontact.contact.truegap.GapDeparture.argmax` against it (tests/test_truegap_argmax.py,
-  tests/test_hertz3d.py).
+  tests/test_hertz3d.py);
+* :func:`line_complementarity`: int lambda^+ (g - [u])^+ of nodal functions on a 2D P1 or P2 line by the 3-point
+  Gauss rule, shape functions by hand (tests/test_side_gap_2d.py, tests/test_p2_run_vertex.py).
 
 A fixtures module: the test modules do not import each other.
 """
@@ -216,3 +218,20 @@ def check_argmax(dep, b, m, tol):
     diff = np.abs(best[on] - slack_maximum(dep, b, m)) / scale
     assert diff.max() <= tol, diff.max()
     return diff.max()
+
+
+def line_complementarity(x, lam, opening, degree):
+    """int lambda^+ (g - [u])^+ (J/m) over the 2D line of sorted nodes ``x`` (m; P2: vertex, midpoint, vertex, ...)
+    of the P1 (``degree`` 1) or P2 functions of nodal values ``lam`` (Pa) and ``opening`` g - [u] (m), by the
+    3-point Gauss rule on each segment, the shape functions written here."""
+    x, lam, opening = (np.asarray(v, dtype=float) for v in (x, lam, opening))
+    t = 0.5 + 0.5 * np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+    w = np.array([5.0, 8.0, 5.0]) / 18.0
+    if degree == 1:
+        shape, nodes = np.column_stack([1 - t, t]), np.arange(len(x) - 1)[:, None] + np.arange(2)
+    else:
+        shape = np.column_stack([(1 - t) * (1 - 2 * t), 4 * t * (1 - t), t * (2 * t - 1)])
+        nodes = 2 * np.arange((len(x) - 1) // 2)[:, None] + np.arange(3)
+    h = x[nodes[:, -1]] - x[nodes[:, 0]]
+    at = np.maximum(lam[nodes] @ shape.T, 0.0) * np.maximum(opening[nodes] @ shape.T, 0.0)      # (segments, 3)
+    return float(h @ (at @ w))

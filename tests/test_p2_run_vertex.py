@@ -6,12 +6,13 @@ tests/test_sides.py::test_p2_runs_one_closed_one_open.
 Each pair's lambda_h is a function of its own X_h, the continuous P2 line of its run (0 beyond it). The segment
 [1/6, 1/3] is the obstacle's alone, so whatever the split of the part's lambda_h (the one floor's, uniform p) between
 the pairs, the obstacle's function is p on that segment and, being continuous, p at x = 1/3, where the obstacle is
-open by 3.3e-7 m: the complementarity of 2D pairs (read pair by pair) charges it. These tests check that with
+open by 3.3e-7 m: the complementarity of that pair alone charges it (the estimate reads the side's once, 0;
+tests/test_side_gap_2d.py). These tests check that with
 references that do not go through the read-back: a dense solve of the mixed system (26) with rows built here from
 the obstacles' distances, P2 mass matrices built here, and the closed form of the complementarity integral. The
 term is a property of the pairs' spaces (the obstacle's own representer of its own forces is not 0 there either),
 and it falls as the floor's first vertex x_f nears 0.3 and h falls: at most p 1e-5 h^2 (0.146, 0.0652, 5.7e-4 at
-nx = 6, 12, 96 against norm^2 53.8).
+nx = 6, 12, 96 against norm^2 53.8; what the estimate read pair by pair, before it read the side once).
 """
 
 import numpy as np
@@ -19,6 +20,7 @@ import pytest
 import scipy.sparse as sp
 from hex_scenes import DELTA, M_S, H
 from reach_scenes import block2d, line, lowered
+from references import line_complementarity
 
 import cvxcontact as cc
 from cvxcontact.fem import p2
@@ -184,8 +186,9 @@ def _complementarity_closed_form(nx):
 
 @pytest.mark.parametrize("nx", [6, 12, 96])
 def test_the_complementarity_is_the_forced_split_on_the_open_gap(nx):
-    """The estimate's complementarity is that integral in closed form: the forced p at x_f on the obstacle's open
-    gap, on the two segments next to it; the one floor's is 0. It falls with h and x_f - 0.3 <= h: at most
+    """The obstacle's own complementarity (its lambda_h on its gap, pair by pair, by hand) is that integral in
+    closed form: the forced p at x_f on the obstacle's open gap, on the two segments next to it. The estimate reads
+    the side's once (lambda_h summed, the least gap), 0 as the one floor's; pair by pair it read the closed form. It falls with h and x_f - 0.3 <= h: at most
     p 1e-5 h^2 (nx = 6, 12: x_f = 1/3; nx = 96: x_f = 0.302). nx = 24 and 48 are left out: a midpoint of the
     obstacle's run lies in (0.3, x_f), where the floor's run does not reach, so the discrete answer is not the one
     floor's (it is not held there)."""
@@ -201,10 +204,13 @@ def test_the_complementarity_is_the_forced_split_on_the_open_gap(nx):
     want = (x < xf + 1e-9).astype(float)                                 # p up to x_f, 0 beyond
     # measured <= 1.3e-15, 3.7e-15, 1.7e-13 relative (nx = 6, 12, 96; 5 kernel sets)
     assert np.abs(obstacle.lam / P_UNIFORM - want).max() <= 1e-10
-    est = sol.estimate
     closed_form = _complementarity_closed_form(nx)
     assert 0 < closed_form <= P_UNIFORM * 1e-5 / nx ** 2
+    own = line_complementarity(x, obstacle.lam, np.asarray(obstacle.gap) - np.asarray(obstacle.jump), 2)
     # measured 0.14641, 0.065157, 5.7190e-4 against norm^2 53.85 (2.72e-3, 1.21e-3, 1.06e-5), off the closed form
-    # by <= 9.5e-16, 1.1e-15, 5.1e-14 of it (nx = 6, 12, 96; 5 kernel sets)
-    assert abs(est.parts["complementarity"] - closed_form) <= 1e-11 * closed_form
+    # by <= 1.1e-15, 1.9e-15, 6.1e-14 of it (nx = 6, 12, 96; 5 kernel sets)
+    assert abs(own - closed_form) <= 1e-11 * closed_form
+    # the estimate reads it once on the side (tests/test_side_gap_2d.py), as the one floor: measured <= 4.6e-29 of
+    # the closed form (5 kernel sets; before, pair by pair, the obstacle's own: the closed form)
+    assert abs(sol.estimate.parts["complementarity"]) <= 1e-12 * closed_form
     assert abs(one.estimate.parts["complementarity"]) <= 1e-12 * closed_form       # measured <= 2.6e-30

@@ -6,7 +6,9 @@ On the contact part of each side, R_F = sigma_h n + lambda_h n (eq. (8): sigma_n
 lambda_h the solution's multiplier, 0 beyond its support), h_F ||R_F||_F^2 / c_T; on each cell S of the contact
 mesh of a Signorini pair (2D: the merged segments; 3D: the elements of X_h, the overlay triangles or the faces
 against an obstacle) the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
-c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the cells of both sides. A friction law subtracts its tangential
+c_T / h_S ||([u_h nu] - g)^+||_S^2, shared by the cells of both sides (a side held by several obstacles: once on
+the side, lambda_h the pairs' summed and g - [u_h nu] the least over them; 2D :func:`_side_line_terms`, 3D
+:func:`_side_gap_terms`). A friction law subtracts its tangential
 traction t_h from R_F and adds the friction cone and the slip complementarity on each S (:mod:`.slipestimate`).
 lambda_h is read where it lives: on the merged line (2D) or on the elements of X_h (3D, :meth:`elements` of the
 pair's surface).
@@ -236,10 +238,11 @@ def contact_terms(sol, data, cache, eta2, parts, signorini=True):
     """2D: on each side (body, contact part) h_E ||sigma_h n + sum_i (lambda_i n - t_i t)||^2 / c_T over the pairs
     i that hold the part (one, or several obstacles each reaching part of it; t_i a friction law's, the first body's
     and the opposite on the second), once per side; on each merged segment of a Signorini pair the
-    complementarity and the penetration (and the friction terms), shared by the cells of the sides (module
-    docstring)."""
+    complementarity and the penetration (a side held by several obstacles: once on the side,
+    :func:`_side_line_terms`) and the friction terms, shared by the cells of the sides (module docstring)."""
     scene = sol.scene
     held = held_sides(scene.stack)                                      # per side (k, part): [(pair, its side)]
+    sided = _gap_sides(sol, held, signorini)     # sides whose complementarity is read once (_side_line_terms)
     done, fields = set(), {}
     for i, c in enumerate(sol.contacts):
         if i not in fields:
@@ -274,7 +277,10 @@ def contact_terms(sol, data, cache, eta2, parts, signorini=True):
             located.append((k, cell, s_lo, s_hi))
         if not signorini or (c.law is not None and getattr(c.law, "compliant", False)):
             continue                                                   # compliance: penetration is the law
-        _signorini_terms(c, located, data, eta2, parts, fields[i][5])
+        key = pair_sides(scene.stack, i)[0]
+        if key in sided and sided[key][-1] == i:       # obstacles sharing the part: read on the side, once
+            _side_line_terms(sol, {j: fields[j] for j in sided[key]}, located, data, eta2, parts)
+        _signorini_terms(c, located, data, eta2, parts, fields[i][5], alone=key not in sided)
 
 
 def _pair_fields(sol, i):
@@ -298,12 +304,13 @@ def _line_at(c, x, values, s):
     return np.where((s < x[0]) | (s > x[-1]), 0.0, c.trace.values(x, values, s))
 
 
-def _signorini_terms(c, located, data, eta2, parts, fr=None):
-    """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S,
+def _signorini_terms(c, located, data, eta2, parts, fr=None, alone=True):
+    """2D: int_S lambda_h^+ (g - [u_h nu])^+ and c_T / h_S ||([u_h nu] - g)^+||^2 on each merged segment S (not
+    with ``alone`` False: a side held by several obstacles, :func:`_side_line_terms`) and a friction law's terms,
     split evenly between the sides' cells that hold its midpoint."""
     x = np.asarray(c.x, dtype=float)
     xv = c.trace.vertices(x)
-    if len(xv) < 2:
+    if len(xv) < 2 or not (alone or fr is not None):
         return
     gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)
     open_ = gap - np.asarray(c.jump, dtype=float)                          # g - [u_nu] at the merged nodes
@@ -319,17 +326,60 @@ def _signorini_terms(c, located, data, eta2, parts, fr=None):
         pen += w * np.maximum(-g, 0.0) ** 2
     comp *= hS
     pen *= hS
-    mid = 0.5 * (a + b)
+    owners = _segment_owners(located, 0.5 * (a + b))
+    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)} if alone else {}
+    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
+        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
+        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
+    _share(owners, terms, data, eta2, parts)
+
+
+def _segment_owners(located, mid) -> list:
+    """[(body k, cell of k)] per side of ``located`` [(k, cells (e,), the faces' s_lo (e,), s_hi (e,))]: the cell
+    whose face holds each abscissa ``mid`` (m), the owners of :func:`_share`."""
     owners = []
     for k, cell, s_lo, s_hi in located:
         order = np.argsort(s_lo)
         j = np.clip(np.searchsorted(s_lo[order], mid, side="right") - 1, 0, len(order) - 1)
         owners.append((k, cell[order[j]]))
-    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
-    if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
-        cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
-        terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})
-    _share(owners, terms, data, eta2, parts)
+    return owners
+
+
+def _side_line_terms(sol, group, located, data, eta2, parts):
+    """2D: the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
+    c_T / h_S ||([u_h nu] - g)^+||_S^2 of a side held by several obstacles (``group``: {pair index: its
+    :func:`_pair_fields`}), on each segment S of the side's trace that one of their runs holds, once (as :func:`_side_gap_terms` on a
+    surface): lambda_h the pairs' functions summed (the side's, as the contact traction reads it), g - [u_h nu] at
+    each node of the trace the least over the pairs reaching it (the nearest obstacle's; 0 at a node none
+    reaches); by the estimate's 3-point rule; ``located``: the side's faces, as :func:`_segment_owners` reads
+    them. Pair by pair, the discrete space's forced split of lambda_h between the pairs was charged on an open
+    pair's gap (docs/accuracy.md, "Several pairs on one part")."""
+    first = next(iter(group))
+    trace = group[first][0].trace                                       # the space's trace (P1, P2)
+    xs = np.asarray(sol._pair_line(first).traces[0].x, dtype=float)    # the side's trace: its nodes' s (m)
+    gap = np.full(len(xs), np.inf)
+    segments = []
+    for c, *_ in group.values():
+        x = np.asarray(c.x, dtype=float)
+        at = np.clip(np.searchsorted(xs, x), 1, len(xs) - 1)
+        at -= (x - xs[at - 1]) < (xs[at] - x)                           # the trace's node at each of its nodes
+        own = (np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)) - np.asarray(c.jump, float)
+        np.minimum.at(gap, at, own)
+        segments.append(np.arange(at[0] // trace.step, at[-1] // trace.step))   # its run's segments
+    gap = np.where(np.isfinite(gap), gap, 0.0)
+    seg = np.unique(np.concatenate(segments))
+    xv = trace.vertices(xs)
+    a, hS = xv[seg], xv[seg + 1] - xv[seg]
+    comp = np.zeros(len(a))
+    pen = np.zeros(len(a))
+    for tq, w in zip(*_GAUSS3):
+        s = a + tq * hS
+        lam = sum(_line_at(c, x_line, lam_i, s) for c, _, x_line, lam_i, _, _ in group.values())
+        g = trace.values(xs, gap, s)
+        comp += w * np.maximum(lam, 0.0) * np.maximum(g, 0.0)
+        pen += w * np.maximum(-g, 0.0) ** 2
+    _share(_segment_owners(located, a + 0.5 * hS),
+           {"complementarity": (comp * hS, 0), "penetration": (pen, 1)}, data, eta2, parts)
 
 
 def _share(owners, terms, data, eta2, parts):
@@ -361,7 +411,7 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
     held = {key: [pairs[i]["sides"][slot] for i, slot in on] for key, on in holders.items()}   # its [_PairSide]
     last = {key: on[-1][0] for key, on in holders.items()}                                    # its last pair
     acc = {}                                          # per side: int_F |R_F|^2 of its faces
-    sided = _gap_sides(sol, pairs, holders, signorini)   # sides whose complementarity is read once (_side_gap_terms)
+    sided = _gap_sides(sol, holders, signorini)   # sides whose complementarity is read once (_side_gap_terms)
     for i, (c, pr) in enumerate(zip(sol.contacts, pairs)):
         itf, fr = pr["itf"], pr["fr"]
         elements, corners, hosts = pr["elements"], pr["corners"], pr["hosts"]
@@ -434,14 +484,16 @@ def surface_contact_terms(sol, data, cache, eta2, parts, signorini=True):
         _share(owners, terms, data, eta2, parts)
 
 
-def _gap_sides(sol, pairs, holders, signorini) -> dict:
+def _gap_sides(sol, holders, signorini) -> dict:
     """{side key: [pair indices]}: the sides (body, part) held by several pairs (``holders``: each side's
     [(pair, its side)], :func:`~cvxcontact.contact.sides.held_sides`), every one a Signorini pair against an
-    obstacle, whose complementarity and penetration are read once on the side (:func:`_side_gap_terms`)."""
+    obstacle, whose complementarity and penetration are read once on the side (2D :func:`_side_line_terms`, 3D
+    :func:`_side_gap_terms`)."""
     if not signorini:
         return {}
     return {key: [i for i, _ in on] for key, on in holders.items() if len(on) > 1
-            and all(pairs[i]["itf"].rigid and not getattr(sol.contacts[i].law, "compliant", False) for i, _ in on)}
+            and all(sol.scene.interfaces[i].rigid and not getattr(sol.contacts[i].law, "compliant", False)
+                    for i, _ in on)}
 
 
 def _side_gap_terms(group, cache, N, wq):

@@ -216,13 +216,13 @@ def _near_gaps(rng, G, g, tol):
 
 def test_repeated_rows_is_its_definition():
     """ParallelRows(G, tol).repeated(g) (repeated_rows: one grouping with looser_rows since h-split) is the loop's
-    answer on 1500 cases of :func:`_random_rows` and 1500 of :func:`_adversarial_rows`, each with its own gaps and
+    answer on 500 cases of :func:`_random_rows` and 500 of :func:`_adversarial_rows`, each with its own gaps and
     gaps of classes at the tolerance's edge (:func:`_near_gaps`), the groups reused for both. Not vacuous:
-    measured 2790 of the 6000 with a class of two rows or more, 1070 with a chained cluster."""
+    measured 919 of the 2000 with a class of two rows or more, 246 with a chained cluster."""
     rng = np.random.default_rng(20261208)
     classes = chained = 0
     with np.errstate(all="ignore"):
-        for i in range(3000):
+        for i in range(1000):
             G, g, tol = _random_rows(rng) if i % 2 else _adversarial_rows(rng, i % 5)
             groups = ParallelRows(G, tol)
             for gaps in (np.asarray(g, dtype=float), _near_gaps(rng, G, g, tol)):
@@ -230,7 +230,7 @@ def test_repeated_rows_is_its_definition():
                 assert np.array_equal(groups.repeated(gaps), expected), (i, tol)
                 classes += (expected != np.arange(len(expected))).any()
                 chained += (~groups.exact).any()
-    assert classes > 1000 and chained > 300
+    assert classes > 400 and chained > 100
 
 
 def test_repeated_rows_classes_hold_their_leader():

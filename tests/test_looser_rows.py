@@ -8,7 +8,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from cvxcontact.backends.amg import own_dofs
-from cvxcontact.backends.parallel import PARALLEL_TOL, ParallelRows, looser_rows, repeated_rows
+from cvxcontact.backends.parallel import (
+    PARALLEL_TOL,
+    ParallelRows,
+    looser_rows,
+    repeated_rows,
+)
 
 
 def _looser_rows_by_definition(G, g, tol=PARALLEL_TOL):

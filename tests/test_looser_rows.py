@@ -8,7 +8,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from cvxcontact.backends.amg import own_dofs
-from cvxcontact.backends.parallel import PARALLEL_TOL, ParallelRows, looser_rows
+from cvxcontact.backends.parallel import (
+    PARALLEL_TOL,
+    ParallelRows,
+    looser_rows,
+    repeated_rows,
+)
 
 
 def _looser_rows_by_definition(G, g, tol=PARALLEL_TOL):
@@ -176,3 +181,70 @@ def test_looser_rows_is_its_definition_on_adversarial_rows():
             looser += expected.any()
             chained += (~groups.exact).any()
     assert looser > 200 and chained > 20
+
+
+def _repeated_rows_by_definition(G, g, tol=PARALLEL_TOL):
+    """repeated_rows as its docstring reads it, a loop over the rows (the loop before h-split, each row marked
+    once it is in a class): rows grouped by their columns, each group tightest first (ties by index), a row in no
+    class leading one with every later row in none whose unit row is within ``tol`` of its own and whose
+    normalised gap is within ``tol`` x the largest finite |normalised gap| of its own; a class labelled by its
+    lowest row."""
+    G = sp.csr_matrix(G, copy=True)
+    G.eliminate_zeros()
+    G.sort_indices()
+    norms = np.sqrt(np.asarray(G.multiply(G).sum(axis=1)).ravel())
+    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
+    scale = tol * max(float(np.abs(gap[np.isfinite(gap)]).max(initial=0.0)), np.finfo(float).tiny)
+    groups: dict[bytes, list[int]] = {}
+    for a in np.flatnonzero(norms > 0):
+        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
+    first, done = np.arange(G.shape[0]), np.zeros(G.shape[0], dtype=bool)
+    for rows in (r for r in groups.values() if len(r) > 1):
+        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]
+        U = np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])
+        for i in range(len(rows)):
+            if done[rows[i]]:
+                continue
+            same = ~done[rows[i + 1:]] & (np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol) & (
+                np.abs(gap[rows[i + 1:]] - gap[rows[i]]) <= scale)
+            cls = np.concatenate([[rows[i]], rows[i + 1:][same]])
+            first[cls], done[cls] = cls.min(), True
+    return first
+
+
+def _near_gaps(rng, G, g, tol):
+    """Gaps of a few values moved by 0 to 6 x ``tol`` (classes at the tolerance's edge), or ``g``."""
+    m = G.shape[0]
+    base = rng.choice([1.0, 2.0, 0.0, -1.0], m) if rng.random() < 0.5 else np.asarray(g, dtype=float)
+    return base + rng.integers(0, 4, m) * rng.choice([0.0, 0.3, 0.7, 1.0, 3.0]) * tol * 2.0
+
+
+def test_repeated_rows_is_its_definition():
+    """ParallelRows(G, tol).repeated(g) (repeated_rows: one grouping with looser_rows since h-split) is the loop's
+    answer on 500 cases of :func:`_random_rows` and 500 of :func:`_adversarial_rows`, each with its own gaps and
+    gaps of classes at the tolerance's edge (:func:`_near_gaps`), the groups reused for both. Not vacuous:
+    measured 919 of the 2000 with a class of two rows or more, 246 with a chained cluster."""
+    rng = np.random.default_rng(20261208)
+    classes = chained = 0
+    with np.errstate(all="ignore"):
+        for i in range(1000):
+            G, g, tol = _random_rows(rng) if i % 2 else _adversarial_rows(rng, i % 5)
+            groups = ParallelRows(G, tol)
+            for gaps in (np.asarray(g, dtype=float), _near_gaps(rng, G, g, tol)):
+                expected = _repeated_rows_by_definition(G, gaps, tol)
+                assert np.array_equal(groups.repeated(gaps), expected), (i, tol)
+                classes += (expected != np.arange(len(expected))).any()
+                chained += (~groups.exact).any()
+    assert classes > 400 and chained > 100
+
+
+def test_repeated_rows_classes_hold_their_leader():
+    """Equal rows 0, 1, 2 of gaps 0.6, 0, 1.5 (x 1e-12 of the largest gap, 1e3): row 1 (tightest) leads a class
+    with row 0 (0.6 x the tolerance away), labelled 0; row 2 is 1.5 x the tolerance from the leader, a class of its
+    own. The loop before h-split let row 0, the class's lowest row, lead a second pass and took row 2 in (0.9 x
+    the tolerance from row 0): a class whose rows were not all within the tolerance of the row closed_once keeps."""
+    G = sp.csr_matrix(np.array([[1.0], [1.0], [1.0], [0.0]]))
+    s = PARALLEL_TOL * 1e3
+    g = np.array([0.6 * s, 0.0, 1.5 * s, 1e3])
+    assert repeated_rows(G, g).tolist() == [0, 0, 2, 3]
+    assert _repeated_rows_by_definition(G, g).tolist() == [0, 0, 2, 3]

@@ -36,29 +36,6 @@ def normalised_gaps(G, g) -> np.ndarray:
     return np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
 
 
-def _parallel(G, g):
-    """(order, U, gap): per set of rows of one sparsity pattern (the only candidates for parallel rows), its rows
-    sorted by normalised gap (ties by index) and their unit rows; ``gap`` the normalised gaps g_a / |G_a|."""
-    G = sp.csr_matrix(G, copy=True)
-    G.eliminate_zeros()
-    G.sort_indices()
-    norms = _row_norms(G)
-    gap = np.asarray(g, dtype=float) / np.where(norms > 0, norms, 1.0)
-    nnz = np.diff(G.indptr)
-    at = np.repeat(np.arange(G.shape[0]), nnz)
-    cols = G.indices.astype(float)                    # a row's pattern summed (nnz, sum j, sum j^2): rows whose
-    key = np.column_stack([nnz, np.bincount(at, cols, G.shape[0]), np.bincount(at, cols ** 2, G.shape[0])])
-    _, which, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)   # sums no other row has
-    groups: dict[bytes, list[int]] = {}                                                 # have no pattern in common
-    for a in np.flatnonzero((norms > 0) & (count[which.ravel()] > 1)):   # rows on the same unknowns (the candidates)
-        groups.setdefault(G.indices[G.indptr[a]:G.indptr[a + 1]].tobytes(), []).append(int(a))
-    out = []
-    for rows in (r for r in groups.values() if len(r) > 1):
-        rows = np.array(rows)[np.argsort(gap[rows], kind="stable")]      # tightest first, ties by index
-        out.append((rows, np.array([G.data[G.indptr[a]:G.indptr[a + 1]] / norms[a] for a in rows])))
-    return out, gap
-
-
 def looser_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     """The contact rows another row implies (bool per row): a row a with G_a = c G_b, c > 0 (to ``tol``,
     :data:`PARALLEL_TOL`), of a normalised gap g_a / |G_a| >= g_b / |G_b| (the tightest of each parallel group is
@@ -160,6 +137,57 @@ class ParallelRows:
         return looser
 
 
+    def repeated(self, g) -> np.ndarray:
+        """(m,) int: per row, the first row of its class of repeated rows under gaps ``g`` (:func:`repeated_rows`).
+
+        Greedy, tightest first (ties by index): a row in no class yet leads one, with every later row of its
+        cluster in none whose unit row is within ``tol`` of the leader's and whose normalised gap is within ``tol``
+        x the largest finite |g_a| / |G_a| of the leader's; the class's label its lowest row index. Every row of a
+        class is within the tolerance of its leader, the tightest (:func:`closed_once` closes the leader). In a
+        cluster of :attr:`exact` every two unit rows are within ``tol``: one step takes each such cluster's next
+        class at once (the steps as many as the most classes of one cluster); chained clusters row by row."""
+        first = np.arange(self.m)
+        gap = np.asarray(g, dtype=float) / self._scale
+        finite = np.abs(gap[np.isfinite(gap)])             # (an infinite gap repeats nothing: inf - inf is nan)
+        scale = self._tol * max(float(finite.max(initial=0.0)), np.finfo(float).tiny)
+        if len(self.rows) == 0:
+            return first
+        order = np.lexsort((self.rows, gap[self.rows], self.cluster))      # tightest first, ties by index
+        rows, gs = self.rows[order], gap[self.rows[order]]
+        cluster = self.cluster[order]
+        lo = np.flatnonzero(np.concatenate([[True], np.diff(cluster) != 0]))      # each cluster's span
+        hi = np.append(lo[1:], len(rows))
+        lead, end = lo[self.exact[cluster[lo]]], hi[self.exact[cluster[lo]]]
+        done = np.zeros(len(rows), dtype=bool)            # (positions in that order) in a class already
+        while len(lead):                                  # each exact cluster's next class, all at once
+            n = end - lead
+            starts = np.cumsum(n) - n
+            which = np.repeat(np.arange(len(lead)), n)
+            offset = np.arange(n.sum()) - starts[which]
+            pos = lead[which] + offset
+            joins = ~done[pos] & ((np.abs(gs[pos] - gs[lead[which]]) <= scale) | (offset == 0))
+            label = np.full(len(lead), self.m)
+            np.minimum.at(label, which[joins], rows[pos[joins]])
+            first[rows[pos[joins]]] = label[which[joins]]
+            done[pos[joins]] = True
+            step = np.minimum.reduceat(np.where(done[pos], n[which], offset), starts)   # the next leader
+            lead = lead + step
+            lead, end = lead[lead < end], end[lead < end]
+        for k, U in self._units.items():                  # chained clusters: the greedy definition
+            mine = np.arange(*np.searchsorted(self.cluster, [k, k + 1]))
+            seq = mine[np.argsort(gap[self.rows[mine]], kind="stable")]
+            U, crow, out = U[seq - mine[0]], self.rows[seq], np.zeros(len(seq), dtype=bool)
+            for i in range(len(seq)):
+                if out[i]:
+                    continue
+                same = ~out[i + 1:] & (np.abs(U[i + 1:] - U[i]).max(axis=1) <= self._tol) & (
+                    np.abs(gap[crow[i + 1:]] - gap[crow[i]]) <= scale)
+                cls = np.concatenate([[crow[i]], crow[i + 1:][same]])
+                first[cls] = cls.min()
+                out[i:][np.concatenate([[True], same])] = True
+        return first
+
+
 def _shared(R, U, cid):
     """The rows of ``R`` (their unit rows ``U``, cluster ids ``cid``, sorted) whose cluster has two or more."""
     size = np.bincount(cid)
@@ -173,20 +201,9 @@ def repeated_rows(G, g, tol: float = PARALLEL_TOL) -> np.ndarray:
     (int per row). Rows of one class are one equation: closing them together is closing one, the force on them
     is determined only in its sum (coincident obstacles: two planes of one position and normal, the same gaps).
     Unlike :func:`looser_rows` this reads no order of gaps, so it holds for any law closing the rows as they are
-    (the rows of a force-controlled obstacle included, their translation columns part of G)."""
-    groups, gap = _parallel(G, g)
-    first = np.arange(G.shape[0])
-    finite = np.abs(gap[np.isfinite(gap)])                 # (an infinite gap repeats nothing: inf - inf is nan)
-    scale = tol * max(float(finite.max(initial=0.0)), np.finfo(float).tiny)
-    for rows, U in groups:
-        for i in range(len(rows)):
-            if first[rows[i]] != rows[i]:
-                continue
-            same = (np.abs(U[i + 1:] - U[i]).max(axis=1) <= tol) & (np.abs(gap[rows[i + 1:]] - gap[rows[i]]) <= scale)
-            same &= first[rows[i + 1:]] == rows[i + 1:]
-            cls = np.concatenate([[rows[i]], rows[i + 1:][same]])
-            first[cls] = cls.min()
-    return first
+    (the rows of a force-controlled obstacle included, their translation columns part of G). The groups:
+    :class:`ParallelRows` (``ParallelRows(G, tol).repeated(g)``, this function)."""
+    return ParallelRows(G, tol).repeated(g)
 
 
 def closed_once(first: np.ndarray, active: np.ndarray, gap: np.ndarray | None = None) -> np.ndarray:

@@ -133,11 +133,11 @@ def block2d(obstacles, nx=6, cell="triangle"):
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 
 
-def block3d(obstacles, cell="tetra"):
+def block3d(obstacles, cell="tetra", body_force=None):
     """The 3 x 3 x 1 steel box [0, 1]^2 x [0, H] (``cell`` "tetra" or "hex") on rollers, pushed down by DELTA onto
-    ``obstacles`` under its bottom (one pair each)."""
+    ``obstacles`` under its bottom (one pair each), under ``body_force`` (N/m^3, default none)."""
     body = cc.Body(cc.box(nx=3, ny=3, nz=1, z=(0.0, H), cell=cell), STEEL, roller=SIDES,
-                   displacement={"top": (None, None, -DELTA)}, contact="bottom")
+                   displacement={"top": (None, None, -DELTA)}, contact="bottom", body_force=body_force)
     return cc.Scene(body, contacts=[cc.Contact(body, "bottom", o) for o in obstacles])
 
 

@@ -291,3 +291,32 @@ def test_a_far_floor_changes_nothing(body, up, far, method, without_far_floor):
         assert np.abs(mine.lam - theirs.lam).max() <= f_tol * lam_max
     far_pair = sol.contacts[2]
     assert np.abs(far_pair.force).max() <= f_tol * f_max and np.abs(far_pair.lam).max() <= f_tol * lam_max
+
+
+@pytest.mark.parametrize("body", ["3D P1", "3D Q1"])
+def test_amg_rounding_floor_drops_only_loads_at_rounding(body):
+    """``amg.rounding_floor`` is a normwise backward error, not a test of exact zero: the box with every row closed
+    on the floor at gap 0 (the strip 3e-6 m below it), plus a horizontal body force f, whose reduced right-hand side
+    is f's alone (F's rounding apart). Its floor is ~75x above that rounding here, so a genuine load between them is
+    dropped: f = 3e-8 N/m^3 (||b|| 0.38 of the floor, P1) gives u_x = 0 exactly (the answer x_fix) against the
+    sparse route's 1.4e-20 m (P1; Q1 1.3e-20): u 1.3e-15 to 1.4e-15 of max |u| from the sparse route's over the
+    five kernel sets (bound 1e-12). A load 12.6 times the floor (P1, f = 1e-6 N/m^3) is solved: u_x against the
+    sparse route's, relative to its max, 1.2e-15 to 2.7e-15 over the five kernel sets (bound 1e-12); the same
+    check with the floor inflated 13-fold fails (u_x = 0)."""
+    pytest.importorskip("pyamg")
+    dim, degree, cell = BODIES[body]
+    faint, clear = 3e-8, 1e-6                       # N/m^3 (steel's weight: 7.7e4)
+
+    def made(f):
+        return block3d((floor(dim), lowered(0.3, 0.7, dim, drop=UP)), cell=cell, body_force=(f, 0.0, 0.0))
+    out = {}
+    for f in (faint, clear):
+        sol = cc.solve(made(f), "sigma1", degree=degree, method="amg")
+        ref = cc.solve(made(f), "sigma1", degree=degree, method="sparse")
+        assert sol.ok and ref.ok and sol.info.method == "amg"
+        out[f] = (sol.u[0], ref.u[0])
+    u, ref = out[faint]
+    assert np.abs(ref[:, 0]).max() > 0.0 and not u[:, 0].any()
+    assert rel(u, ref) < 1e-12
+    u, ref = out[clear]
+    assert rel(u[:, 0], ref[:, 0]) < 1e-12

@@ -102,7 +102,7 @@ def test_a_part_held_by_one_pair_is_read_pair_by_pair(monkeypatch):
     assert len(calls) == 1 and sorted(calls[0]) == [0, 1]
 
 
-@pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")   # Tresca's thresholds add where both reach (unsheared)
+@pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")   # Tresca's thresholds add where both reach
 @pytest.mark.parametrize("law", [lambda: cc.Tresca(1e7), lambda: cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
 @pytest.mark.parametrize("degree", [1, 2])
 def test_kink_under_friction_reads_the_side_once(degree, law):

@@ -1,6 +1,6 @@
-"""Benchmark helper: sha256 (first 16 hex digits) of the error estimate (absolute, norm, parts, indicators) of 18
-scenes, a before/after bit-for-bit check of a change that must not alter the estimate (h-estmem: the contact
-terms' memory), and of 2D obstacle scenes (h-side2d: one pair per part unchanged; obstacles sharing a part, "shared",
+"""Benchmark helper: sha256 (first 16 hex digits) of the error estimate (absolute, norm, parts, indicators) of 35
+scenes (16 3D, 19 2D), a before/after bit-for-bit check of a change that must not alter the estimate (h-estmem: the
+contact terms' memory), and of 2D obstacle scenes (h-side2d: one pair per part unchanged; obstacles sharing a part, "shared",
 their complementarity and penetration read once on the side). Run it with each checkout's package and tests and diff
 the outputs:
 

@@ -188,8 +188,8 @@ def _complementarity_closed_form(nx):
 def test_the_complementarity_is_the_forced_split_on_the_open_gap(nx):
     """The obstacle's own complementarity (its lambda_h on its gap, pair by pair, by hand) is that integral in
     closed form: the forced p at x_f on the obstacle's open gap, on the two segments next to it. The estimate reads
-    the side's once (lambda_h summed, the least gap), 0 as the one floor's; pair by pair it read the closed form. It falls with h and x_f - 0.3 <= h: at most
-    p 1e-5 h^2 (nx = 6, 12: x_f = 1/3; nx = 96: x_f = 0.302). nx = 24 and 48 are left out: a midpoint of the
+    the side's once (lambda_h summed, the least gap), 0 as the one floor's; pair by pair it read the closed form.
+    It falls with h and x_f - 0.3 <= h: at most p 1e-5 h^2 (nx = 6, 12: x_f = 1/3; nx = 96: x_f = 0.302). nx = 24 and 48 are left out: a midpoint of the
     obstacle's run lies in (0.3, x_f), where the floor's run does not reach, so the discrete answer is not the one
     floor's (it is not held there)."""
     sol = cc.solve(block2d((line(0.3, 2.0), lowered(-1.0, 0.6, 2, kink=0.3)), nx=nx), "sigma1", degree=2)

@@ -100,3 +100,25 @@ def test_a_part_held_by_one_pair_is_read_pair_by_pair(monkeypatch):
     assert calls == []
     assert np.isfinite(cc.solve(block2d(KINK[0]), "sigma1").estimate.absolute)
     assert len(calls) == 1 and sorted(calls[0]) == [0, 1]
+
+
+@pytest.mark.filterwarnings("ignore::cvxcontact.OverlapWarning")   # Tresca's thresholds add where both reach
+@pytest.mark.parametrize("law", [lambda: cc.Tresca(1e7), lambda: cc.Coulomb(0.3)], ids=["tresca", "coulomb"])
+@pytest.mark.parametrize("degree", [1, 2])
+def test_kink_under_friction_reads_the_side_once(degree, law):
+    """A friction law on the kink's pairs: the complementarity and penetration still read once on the side (not also
+    pair by pair beside the friction terms, which stay per pair): 0 to rounding as on the one floor under that law,
+    the friction cone and slip complementarity 0 as there (the block is not sheared)."""
+    scenes = []
+    for obstacles in KINK:
+        body = block2d(obstacles).bodies[0]
+        scenes.append(cc.Scene(body, contacts=[cc.Contact(body, "bottom", o, law=law()) for o in obstacles]))
+    two, one = (cc.solve(s, "sigma1", degree=degree) for s in scenes)
+    assert two.ok and one.ok
+    # measured <= 4.2e-16 relative (P1, P2; 5 kernel sets)
+    assert np.abs(two.u[0] - one.u[0]).max() <= 1e-11 * float(np.abs(one.u[0]).max())
+    scale = one.estimate.norm ** 2                                      # 53.85
+    # measured of norm^2: complementarity <= 7.4e-31, penetration <= 1.1e-61, friction cone 0, slip complementarity
+    # <= 9.1e-31 (P1 all 0; 5 kernel sets); pair by pair (before) the complementarity read 0.0499 (P1), 0.146 (P2)
+    for name in ("complementarity", "penetration", "friction cone", "slip complementarity"):
+        assert abs(two.estimate.parts[name]) <= 1e-12 * scale, (name, two.estimate.parts[name])

@@ -348,10 +348,11 @@ def _segment_owners(located, mid) -> list:
 def _side_line_terms(sol, group, located, data, eta2, parts):
     """2D: the complementarity int_S lambda_h^+ (g - [u_h nu])^+ and the penetration
     c_T / h_S ||([u_h nu] - g)^+||_S^2 of a side held by several obstacles (``group``: {pair index: its
-    :func:`_pair_fields`}), on each segment S of the side's trace that one of their runs holds, once (as :func:`_side_gap_terms` on a
-    surface): lambda_h the pairs' functions summed (the side's, as the contact traction reads it), g - [u_h nu] at
-    each node of the trace the least over the pairs reaching it (the nearest obstacle's; 0 at a node none
-    reaches); by the estimate's 3-point rule; ``located``: the side's faces, as :func:`_segment_owners` reads
+    :func:`_pair_fields`}), on each segment S of the side's trace that one of their runs holds, once (as
+    :func:`_side_gap_terms` on a surface): lambda_h the pairs' functions summed (the side's, as the contact traction
+    reads it), g - [u_h nu] at each node of the trace the least over the pairs reaching it (the nearest obstacle's;
+    a run is contiguous, vertex to vertex, so every node of a segment read is reached by the run holding it, and
+    the 0 at a node none reaches is never read); by the estimate's 3-point rule; ``located``: the side's faces, as :func:`_segment_owners` reads
     them. Pair by pair, the discrete space's forced split of lambda_h between the pairs was charged on an open
     pair's gap (docs/accuracy.md, "Several pairs on one part")."""
     first = next(iter(group))

@@ -6,7 +6,9 @@ tests/obstacle_scenes.py) three times from one line of a loop, then once more fr
 "default" action each warning should be shown once per line. Printed: the NonUniqueWarning and ResolutionWarning
 lines the script's stderr shows after the loop and after the second line, and the changes of the filters
 (``warnings._filters_mutated`` calls: ``catch_warnings`` enter and exit, ``filterwarnings``, ``simplefilter``)
-made by one solve after a first (imports and the PARDISO look-up happen once per process), for three scenes.
+made by one solve after a first (imports and the PARDISO look-up happen once per process), for three scenes;
+and the CPU time of the second ``chain.invert`` that ``run_program`` makes to read the status before
+``unpack_results`` (the rest of its steps are ``problem.solve``'s own), beside the program's size and Clarabel's (wall) time.
 
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/warnings_in_a_loop.py
 
@@ -82,9 +84,53 @@ def filter_changes() -> dict[str, int]:
     return out
 
 
+def invert_cost() -> list[tuple[str, int, float, float]]:
+    """[(scene, scalar variables, the median CPU s of 7 ``chain.invert`` of its program's answer, Clarabel's s)]."""
+    import time
+
+    import numpy as np
+    from conftest import two_blocks
+    from scenes3d import two_boxes
+
+    import cvxcontact as cc
+    from cvxcontact.backends import program
+
+    run, rows = program._solve, []
+
+    def spy(problem, solver, verbose, options):
+        run(problem, solver, verbose, options)
+        data, chain, inverse = problem.get_problem_data(solver, solver_opts=dict(options))
+        raw = chain.solve_via_data(problem, data, True, False, dict(options))
+        times = []
+        for _ in range(7):
+            t0 = time.process_time()
+            chain.invert(raw, inverse)
+            times.append(time.process_time() - t0)
+        rows.append((problem.size_metrics.num_scalar_variables, float(np.median(times)),
+                     problem.solver_stats.solve_time))
+
+    out = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        program._solve = spy
+        try:
+            for name, build in (("two_blocks 16x8/11x6, full", lambda: two_blocks()),
+                                ("two_blocks 64x32/44x24, full", lambda: two_blocks((64, 32), (44, 24))),
+                                ("two_boxes(6) 3D, full", lambda: two_boxes(6))):
+                rows.clear()
+                cc.solve(build(), method="full")
+                out += [(name, *row) for row in rows]
+        finally:
+            program._solve = run
+    return out
+
+
 if __name__ == "__main__":
     (loop, both) = script_counts()
     print(f"plain script, 3 solves from one line: {loop[0]} NonUniqueWarning, {loop[1]} ResolutionWarning shown")
     print(f"  and one more from a second line:    {both[0]} NonUniqueWarning, {both[1]} ResolutionWarning in all")
     for name, n in filter_changes().items():
         print(f"filter changes in one solve, {name}: {n}")
+    for name, n, t, solve in invert_cost():
+        print(f"run_program's extra chain.invert, {name} ({n} scalar variables): {t * 1e3:.2f} ms CPU "
+              f"(Clarabel's solve {solve:.3f} s wall)")

@@ -212,3 +212,73 @@ def test_run_program_s_other_paths_keep_problem_solve_s_behaviour(capsys):
     unset = cp.Problem(cp.Minimize(scale * problem.objective.args[0]), constraints)
     with pytest.raises(SolverError, match="ParameterError"):
         run_program(unset, "CLARABEL", False, {})
+
+
+def _settings_spy(monkeypatch):
+    """The list that receives every Clarabel settings object CVXPY builds (as a dict of its fields), through
+    ``parse_solver_opts``, which both a new solver and a warm (updated) one go through."""
+    from cvxpy.reductions.solvers.conic_solvers.clarabel_conif import (
+        CLARABEL as ClarabelInterface,
+    )
+    seen, parse = [], ClarabelInterface.parse_solver_opts
+
+    def spy(verbose, opts, settings=None):
+        out = parse(verbose, opts, settings)
+        seen.append({k: repr(getattr(out, k)) for k in dir(out) if not k.startswith("_") and k != "default"})
+        return out
+
+    monkeypatch.setattr(ClarabelInterface, "parse_solver_opts", staticmethod(spy))
+    return seen
+
+
+@pytest.mark.parametrize("given", ["none", "conic", "conic pairs", "bulk cones", "user"])
+def test_run_program_hands_clarabel_problem_solve_s_settings(monkeypatch, given):
+    """Every solver option set the package passes (backends/program.py: CLARABEL under the options;
+    conic_options' CLARABEL_CONIC, with CLARABEL_CONIC_PAIRS, CLARABEL_BULK_CONES; a user's options) reaches
+    Clarabel as ``problem.solve(solver="CLARABEL", verbose=False, **options)`` sets it: every field of the
+    settings object equal (verbose included), and the answer's bits and iterations."""
+    from cvxcontact.backends.program import conic_options
+    options = {"none": {}, "conic": conic_options("CLARABEL", {}), "conic pairs": conic_options("CLARABEL", {}, 2),
+               "bulk cones": conic_options("CLARABEL", {}, quadratic=False),
+               "user": {"max_iter": 60, "equilibrate_enable": False, "static_regularization_constant": 1e-7,
+                        "direct_solve_method": "qdldl"}}[given]
+    seen = _settings_spy(monkeypatch)
+    reference, x0, c0 = _least_squares()
+    reference.solve(solver="CLARABEL", verbose=False, **{**CLARABEL, **options})
+    ours, x1, c1 = _least_squares()
+    run_program(ours, "CLARABEL", False, options)
+    assert len(seen) == 2 and seen[0] == seen[1]
+    assert seen[1]["verbose"] == "False" and all(seen[1][k] == repr(v) for k, v in {**CLARABEL, **options}.items())
+    assert ours.status == reference.status and np.array_equal(x1.value, x0.value)
+    assert all(np.array_equal(a.dual_value, b.dual_value) for a, b in zip(c1, c0))
+    assert ours.solver_stats.num_iters == reference.solver_stats.num_iters
+
+
+def test_a_parameter_changed_between_run_programs_is_problem_solve_s_warm_re_solve(monkeypatch):
+    """A parameterised program re-solved with a new parameter value (the friction capacities' fixed point,
+    backends/friction.py): run_program takes CVXPY's fast path as ``problem.solve`` does (the cached
+    parameterised program, the same Clarabel solver object updated in place, not a new one) and answers its
+    bits at every value, iterations and duals included."""
+    seen = _settings_spy(monkeypatch)
+    answers, solvers = {}, {}
+    for how in ("problem.solve", "run_program"):
+        problem, x, constraints = _least_squares()
+        weight = cp.Parameter(nonneg=True, value=1.0)
+        problem = cp.Problem(cp.Minimize(problem.objective.args[0] + weight * cp.sum_squares(x)), constraints)
+        out, ids = [], []
+        for value in (1.0, 0.3, 2.5, 0.3):
+            weight.value = value
+            if how == "problem.solve":
+                problem.solve(solver="CLARABEL", verbose=False, **CLARABEL)
+            else:
+                run_program(problem, "CLARABEL", False, {})
+            ids.append(id(problem._solver_cache["CLARABEL"]))
+            out.append((problem.status, problem.value, x.value.tobytes(),
+                        tuple(np.asarray(c.dual_value).tobytes() for c in constraints),
+                        problem.solver_stats.num_iters))
+        assert problem._cache.param_prog is not None                       # the parameterised program kept
+        answers[how], solvers[how] = out, ids
+    assert answers["run_program"] == answers["problem.solve"]
+    assert len(set(solvers["problem.solve"])) == len(set(solvers["run_program"])) == 1      # updated, not rebuilt
+    assert len(seen) == 8 and all(s == seen[0] for s in seen)
+    assert answers["run_program"][1][2] != answers["run_program"][0][2]    # the parameter changed the answer

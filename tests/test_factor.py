@@ -145,10 +145,10 @@ def test_pardiso_gives_one_input_the_same_bits_run_after_run_on_two_threads():
     """Each PARDISO handle runs in oneMKL's reproducible mode (iparm[33] = its thread count): on 2 threads, six new
     handles on thin_layer(200)'s K(A) (the sparse route's way: analysed on the bonded values, a numeric factorisation
     of K(A), a single right-hand side solved) give the same bits, and so do six condensations of its first body
-    (Sigma, a forward and a backward sweep). Without it the single right-hand-side solves gave 3 to 4 distinct
-    answers in 6 (benchmarks/pardiso_cnr.py). The answers solve their systems: componentwise backward errors
-    measured 1.4e-14 to 1.6e-14 (K(A)) and 6.5e-15 to 9.8e-15 (S) under the five kernel sets and MKL_CBWR=COMPATIBLE;
-    bound 5e-12 (>= 310x)."""
+    (Sigma, a forward and a backward sweep; these were the same on main too). Without it the single right-hand-side
+    solves gave up to 4 distinct answers in 6, 2 in most runs (benchmarks/pardiso_cnr.py). The answers solve their
+    systems: componentwise backward errors measured 1.4e-14 to 1.6e-14 (K(A)) and 6.5e-15 to 9.8e-15 (S) under the
+    five kernel sets and MKL_CBWR=COMPATIBLE; bound 5e-12 (>= 310x)."""
     problem = cc.ContactSolver(thin_layer(200), method="sparse").problem
     sc = sparse_backend.SparseContact(list(problem.blocks), problem.E)
     rng = np.random.default_rng(5)

@@ -145,10 +145,10 @@ def test_pardiso_gives_one_input_the_same_bits_run_after_run_on_two_threads():
     """Each PARDISO handle runs in oneMKL's reproducible mode (iparm[33] = its thread count): on 2 threads, six new
     handles on thin_layer(200)'s K(A) (the sparse route's way: analysed on the bonded values, a numeric factorisation
     of K(A), a single right-hand side solved) give the same bits, and so do six condensations of its first body
-    (Sigma, a forward and a backward sweep). Without it the single right-hand-side solves gave 3 to 4 distinct
-    answers in 6 (benchmarks/pardiso_cnr.py). The answers solve their systems: componentwise backward errors
-    measured 1.4e-14 to 1.6e-14 (K(A)) and 6.5e-15 to 9.8e-15 (S) under the five kernel sets and MKL_CBWR=COMPATIBLE;
-    bound 5e-12 (>= 310x)."""
+    (Sigma, a forward and a backward sweep; these were the same on main too). Without it the single right-hand-side
+    solves gave up to 4 distinct answers in 6, 2 in most runs (benchmarks/pardiso_cnr.py). The answers solve their
+    systems: componentwise backward errors measured 1.4e-14 to 1.6e-14 (K(A)) and 6.5e-15 to 9.8e-15 (S) under the
+    five kernel sets and MKL_CBWR=COMPATIBLE; bound 5e-12 (>= 310x)."""
     problem = cc.ContactSolver(thin_layer(200), method="sparse").problem
     sc = sparse_backend.SparseContact(list(problem.blocks), problem.E)
     rng = np.random.default_rng(5)
@@ -171,6 +171,44 @@ def test_pardiso_gives_one_input_the_same_bits_run_after_run_on_two_threads():
     assert len(mixed) == 1 and len(condensed) == 1
     backward = [np.max(abs(M @ z - r) / (abs(M) @ abs(z) + abs(r))) for M, z, r in ((K, x, b), (S, y, F))]
     assert max(backward) < 5e-12
+
+
+@needs_pardiso
+def test_each_pardiso_call_asks_for_the_reproducible_mode_at_the_thread_count_it_runs_on(monkeypatch):
+    """iparm[33] (CNR) is the count of threads the call runs on: ``threads=`` where given; MKL_NUM_THREADS /
+    OMP_NUM_THREADS read when the handle is made (a sweep worker sets them after MKL loaded), for that handle's whole
+    life; else MKL's own count, asked at the call. A handle made under one environment and solved under another keeps
+    its count. (Main left iparm[33] at pardisoinit's -1: no CNR; this test failed there.) The solve is checked against SciPy's LU."""
+    lib = factor._load()
+    rng = np.random.default_rng(3)
+    A = sp.random(60, 60, density=0.1, random_state=rng)
+    K = sp.csc_matrix(A + A.T + 20 * sp.eye(60))
+    K.sort_indices()
+    b = rng.standard_normal(60)
+    seen = []
+    call = factor.PardisoFactorization._call
+
+    def spy(self, phase, rhs, x, nrhs=1):
+        call(self, phase, rhs, x, nrhs)
+        seen.append((phase, int(self._iparm[33])))
+
+    monkeypatch.setattr(factor.PardisoSymmetric, "_call", spy)
+    for var in ("MKL_NUM_THREADS", "OMP_NUM_THREADS"):
+        monkeypatch.delenv(var, raising=False)
+    mkl = lib.MKL_Get_Max_Threads()
+    for env, threads, want in ((None, None, mkl), ("3", None, 3), ("3", 2, 2), (None, 1, 1)):
+        if env is None:
+            monkeypatch.delenv("MKL_NUM_THREADS", raising=False)
+        else:
+            monkeypatch.setenv("MKL_NUM_THREADS", env)
+        seen.clear()
+        h = factor.PardisoSymmetric(K, threads=threads).factor(K)
+        monkeypatch.setenv("MKL_NUM_THREADS", "1")              # after the handle was made: not its count
+        x = h.solve(b)
+        h.release()
+        assert [p for p, _ in seen] == [12, 33] and {t for _, t in seen} == {want}, (env, threads, seen)
+        # measured 5.2e-16 relative to max|x| against SciPy's LU (every count, 5 kernel sets); bound 1e-12 (1900x)
+        assert np.max(abs(x - spla.spsolve(K, b))) < 1e-12 * np.max(abs(x))
 
 
 @needs_pardiso

@@ -410,8 +410,9 @@ def _cnr_threads(lib, threads: int) -> int:
     """PARDISO's iparm[33] for a call on ``threads`` MKL threads (0: MKL's own count, asked now): that count, which
     puts PARDISO in its conditional numerical reproducibility mode (CNR): one input, one answer bit for bit, run
     after run at that thread count on one machine. Without it, on 2 threads, the single right-hand-side solves
-    (phase 33) of one factor gave different bits from run to run (benchmarks/pardiso_cnr.py: 3 to 4 distinct answers
-    in 6 runs of thin_layer(200)'s K(A); 1 with CNR). CNR needs the sequential METIS order (iparm[1] = 2, not 3)."""
+    (phase 33) of one factor gave different bits from run to run (benchmarks/pardiso_cnr.py: up to 4 distinct answers
+    in 6 runs of thin_layer(200)'s K(A), 2 in most; 1 with CNR). CNR needs the sequential METIS order (iparm[1] = 2,
+    not 3)."""
     if threads <= 0 and hasattr(lib, "MKL_Get_Max_Threads"):
         threads = lib.MKL_Get_Max_Threads()
     return max(int(threads), 1)

@@ -149,3 +149,40 @@ def test_a_lawson_hanson_answer_with_closed_rows_open_is_not_accepted(monkeypatc
         assert sol.info.declined is not None and not sol.ok
         # measured: default and Haswell decline; the interior point's rows in by <= -2.4e-14 m (none in)
         assert max((np.asarray(c.jump) - np.asarray(c.gap)).max() for c in sol.contacts) <= 1e-3 * DELTA
+
+
+@pytest.mark.parametrize("force", [None, 1e3, 1e5])
+def test_a_force_controlled_obstacle_is_read_where_the_answer_moved_it(force):
+    """The floor y = 0 under x >= 0.4 only (6 cells: the segment [1/3, 1/2] not in the pair's X_h, its midpoint 5/12
+    over the floor), fixed or force controlled (a vertical guide, the prescribed force ``force`` N/m up): the
+    midpoint's depth is read against the floor where the answer translated it, t_y - u_y(5/12, 0) (t from
+    ``sol.obstacles``), reported where it exceeds UNHELD_TOL of max |u|, not otherwise. Found by review: the floor
+    was read at its given position, so the floor pushed 1.0e-5 m down under 1e3 N/m was reported with the midpoint in
+    by 1e-05 m (the push), where it is in by 1.81e-9 m (1e5 N/m: 9.85e-6 reported, 1.81e-7 m in; measured under the
+    five kernel sets, the reported depth now 1.81e-9 and 1.81e-7 m, fixed: 5.53e-6 m)."""
+    from hex_scenes import STEEL
+
+    from cvxcontact.solution.resolution import UNHELD_TOL
+
+    def distance(x, nu):
+        x = np.asarray(x, dtype=float)
+        return np.where(x[:, 0] >= 0.4, x[:, 1], np.inf)
+
+    floor = cc.Rigid("floor", distance, "the line y = 0 under x >= 0.4",
+                     sensitivity=lambda x, nu: np.tile([0.0, 1.0], (len(x), 1)), dim=2,
+                     force=None if force is None else (0.0, force), guided=None if force is None else [(0.0, 1.0)])
+    body = cc.Body(cc.rectangle(x=(0.0, 1.0), y=(0.0, H), nx=6, ny=2), STEEL, roller=["left", "right"],
+                   displacement={"top": (None, -DELTA)}, contact="bottom")
+    sol, messages = _solve(cc.Scene(body, contacts=[cc.Contact(body, "bottom", floor)]), "auto")
+    assert sol.ok
+    pts, u = np.asarray(sol.points[0]), np.asarray(sol.u[0])
+    at = np.flatnonzero(np.abs(pts - [5 / 12, 0.0]).max(axis=1) < 1e-12)
+    assert len(at) == 1
+    depth = float(sol.obstacles[0].translation[1]) - u[at[0], 1]
+    held = [m for m in messages if "no row of the pair holds" in m]
+    if depth <= 10 * UNHELD_TOL * np.abs(u).max():
+        assert not held, held
+        return
+    assert len(held) == 1
+    reported = float(re.search(r"midpoint in by ([0-9.e+-]+) m", held[0]).group(1))
+    assert abs(reported - depth) <= 5e-3 * depth                    # the message's 3 digits

@@ -293,11 +293,14 @@ def unheld(sol) -> list[str]:
     midpoint may lie over the obstacle: two obstacles meeting inside a segment (neither run holds it), or an
     obstacle whose reach starts inside the segment beside another's run (only the other's rows hold it). Nothing
     of K_h(Sigma_h) keeps the midpoint out of that obstacle, the checks pass (the discrete problem is solved) and
-    the answer is not the one obstacle's of the same surface. Independent of the estimate."""
+    the answer is not the one obstacle's of the same surface. Independent of the estimate. A force-controlled
+    obstacle is read where the answer translated it (:attr:`ObstacleResult.translation
+    <cvxcontact.solution.solution.ObstacleResult.translation>`)."""
     out = []
     if sol.scene.dim != 2 or sol.degree != 2:
         return out
     nodes = {}
+    moved = {id(o.obstacle): o.translation for o in sol.obstacles if np.any(o.translation)}   # force controlled
     for i, pair in enumerate(sol.scene.contacts):
         itf = sol.scene.interfaces[i]
         if not pair.rigid or not getattr(itf, "rigid", False):
@@ -309,7 +312,8 @@ def unheld(sol) -> list[str]:
         reached = np.zeros(len(v), dtype=bool)
         reached[np.asarray(itf.reach)] = True
         mid = 0.5 * (np.asarray(trace.points)[:-1] + np.asarray(trace.points)[1:])
-        d = np.asarray(itf.obstacle.distance(mid, itf.normal), dtype=float)
+        obstacle = itf.obstacle if id(itf.obstacle) not in moved else itf.obstacle.moved(by=moved[id(itf.obstacle)])
+        d = np.asarray(obstacle.distance(mid, itf.normal), dtype=float)     # where the answer put it (its t)
         off = np.flatnonzero(np.isfinite(d) & ~(reached[:-1] & reached[1:]))      # over the obstacle, not in X_h
         if not len(off):
             continue

@@ -5,7 +5,7 @@ tests/test_parallel_obstacles.py (two coincident floors, a floor and a strip of 
 default call), a cc.Model with a user row on coincident floors (2D P1, 3D P1: full.mixed_kkt_rows), and two floors
 apart by 0, 1e-18, 1e-15, 1e-10 m (2D P1, every route), with the package of the tree ``--tree`` (default: this one).
 
-Run (one thread; each tree's tests/ fixtures are read):
+Run (one thread; the package of each tree, the scenes of this tree's tests/reach_scenes.py):
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/parallel_same_bits.py --tree OLD > a
     OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 python benchmarks/parallel_same_bits.py > b; diff a b
 """
@@ -19,24 +19,14 @@ from pathlib import Path
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--tree", default=str(Path(__file__).resolve().parent.parent), help="source tree of cvxcontact")
 args = parser.parse_args()
-sys.path[:0] = [args.tree, str(Path(args.tree) / "tests")]
+sys.path[:0] = [args.tree, str(Path(__file__).resolve().parent.parent / "tests")]   # the package of --tree, the
+# scenes of this tree (tests/reach_scenes.py: the same scenes whatever tree is measured)
 
 import numpy as np
-from reach_scenes import block2d, block3d, line, lowered, strip
+from reach_scenes import BODIES, block2d, floor, line, lowered
+from reach_scenes import block as scene
 
 import cvxcontact as cc
-
-BODIES = {"2D P1": (2, 1, "tetra"), "2D P2": (2, 2, "tetra"), "3D P1": (3, 1, "tetra"), "3D P2": (3, 2, "tetra"),
-          "3D Q1": (3, 1, "hex")}
-
-
-def floor(dim, lo=-1.0, hi=2.0):
-    return line(lo, hi) if dim == 2 else strip(lo, hi)
-
-
-def scene(obstacles, dim, cell):
-    return block2d(obstacles) if dim == 2 else block3d(obstacles, cell=cell)
-
 
 KINDS = {"coincident": lambda d: (floor(d), floor(d)),
          "coincident over part": lambda d: (floor(d), floor(d, 0.3, 0.7)),

@@ -153,6 +153,22 @@ def lowered(lo, hi, dim, drop=3e-6, kink=None):
                     sensitivity=lambda x, nu: np.tile(np.eye(dim)[dim - 1], (len(x), 1)), dim=dim)
 
 
+BODIES = {"2D P1": (2, 1, "tetra"), "2D P2": (2, 2, "tetra"), "3D P1": (3, 1, "tetra"), "3D P2": (3, 2, "tetra"),
+          "3D Q1": (3, 1, "hex")}
+"""The bodies of the parallel-obstacle scenes (tests/test_parallel_obstacles.py, benchmarks/parallel_same_bits.py):
+name -> (dimension, degree, cell)."""
+
+
+def floor(dim, lo=-1.0, hi=2.0):
+    """The floor y = 0 (3D: z = 0) under lo <= x < hi: :func:`line` or :func:`strip`."""
+    return line(lo, hi) if dim == 2 else strip(lo, hi)
+
+
+def block(obstacles, dim, cell):
+    """The block of :func:`block2d` or :func:`block3d` on ``obstacles``."""
+    return block2d(obstacles) if dim == 2 else block3d(obstacles, cell=cell)
+
+
 def kinked(dim, kink=0.3, shift=0.0):
     """The plane (2D: line) y = 0 (3D: z) up to x = ``kink``, then falling by 1e-5 per m, moved down by ``shift``
     (m; < 0: up), its distance along the ray -y (-z): :func:`lowered` (``kink``) under the whole part, at x <=

@@ -15,7 +15,8 @@ at each node, and lambda_h summed over the pairs of the side (read once per side
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from reach_scenes import block2d, block3d, line, lowered, raised, strip
+from reach_scenes import BODIES, block3d, floor, lowered, raised
+from reach_scenes import block as scene
 
 import cvxcontact as cc
 from cvxcontact.backends.parallel import (
@@ -30,19 +31,6 @@ pytestmark = [pytest.mark.numerics,    # re-run under every OpenBLAS kernel set 
 
 UP = 3e-6
 """m: the strip's height above the floor."""
-
-BODIES = {"2D P1": (2, 1, "tetra"), "2D P2": (2, 2, "tetra"), "3D P1": (3, 1, "tetra"), "3D P2": (3, 2, "tetra"),
-          "3D Q1": (3, 1, "hex")}
-"""name: (dimension, degree, cell)."""
-
-
-def floor(dim, lo=-1.0, hi=2.0):
-    return line(lo, hi) if dim == 2 else strip(lo, hi)
-
-
-def scene(obstacles, dim, cell):
-    return block2d(obstacles) if dim == 2 else block3d(obstacles, cell=cell)
-
 
 KINDS = {
     "coincident": (lambda d: (floor(d), floor(d)), lambda d: floor(d)),

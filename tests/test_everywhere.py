@@ -201,3 +201,25 @@ def test_readme_p2_pairs_scene_is_ok_at_the_default_tol():
         assert sol.residuals()["energy error"] < 3e-7             # measured 8.0e-8, 8.4e-8
     force = [s.obstacles[0].force[1] for s in sols]
     assert abs(force[0] - force[1]) < 1e-9 * force[0]            # measured 9e-14
+
+
+def test_block_resting_exactly_on_a_floor_finishes_without_a_nan():
+    """A block pushed down by DELTA on rollers onto a floor at its bottom (y = 0): every slack of the contact is
+    exactly 0 and so is every term of it (the Gamma values u_y = 0), so each segment's scale in the tangency
+    finish's KKT residual is 0. Before: the complementarity products 0/0 = NaN ("invalid value encountered in
+    divide", made an error here), which max() passed over. Independent check: the plane-strain closed form of
+    the uniaxial strain DELTA/H, the resultant (lambda + 2 mu) DELTA / H per m of width."""
+    from hex_scenes import DELTA, H
+    from reach_scenes import block2d, line
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sol = cc.solve(block2d((line(-1.0, 2.0),)), "gamma3", degree=2)
+    assert sol.ok and sol.polished and sol.info.finish == cc.Finish.TANGENCY_NEWTON, sol.report()
+    E, nu = 200e9, 0.3                                         # hex_scenes.STEEL
+    p = E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) * DELTA / H   # Pa; the block is 1 m wide
+    force = sol.obstacles[0].force
+    # bounds >= 100x the largest measured under the five kernel sets, one thread
+    assert abs(force[1] - p) < 1e-12 * p                       # measured 0 ... 5.2e-16 (relative)
+    assert abs(force[0]) < 1e-12 * p                           # measured 0
+    assert sol.residuals()["complementarity"] < 1e-12          # measured 0

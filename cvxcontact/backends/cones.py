@@ -295,7 +295,11 @@ def _tangency_on_compliance(problem, reduction, d, timings, raw, B, cuts) -> Non
 
     def kkt_residual(c):
         seg, t, y, P = c
-        products = np.abs(y * q(seg, t, P)) / (max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg])
+        products, scale = np.abs(y * q(seg, t, P)), max(float(y.max(initial=0.0)), np.finfo(float).tiny) * U[seg]
+        # a segment of zero scale (every term of its slack exactly 0: a block resting exactly on a floor) has
+        # q = 0 there: its products 0, not 0/0 = NaN (which max() would pass over, hiding the others); a
+        # positive product over a zero scale (a curved obstacle's departure) inf
+        products = np.divide(products, scale, out=np.where(products > 0, np.inf, 0.0), where=scale > 0)
         return max(balance(P.T @ y), float(products.max(initial=0.0)))
 
     seg, t, y, P = _closed_only(min(candidates, key=kkt_residual), B, cone_width(problem), G, x, problem.g, departure,

@@ -165,7 +165,9 @@ class ParallelRows:
             which = np.repeat(np.arange(len(lead)), n)
             offset = np.arange(n.sum()) - starts[which]
             pos = lead[which] + offset
-            joins = ~done[pos] & ((np.abs(gs[pos] - gs[lead[which]]) <= scale) | (offset == 0))
+            with np.errstate(invalid="ignore"):           # inf - inf (rows no obstacle reaches): NaN, joins none
+                near = np.abs(gs[pos] - gs[lead[which]]) <= scale
+            joins = ~done[pos] & (near | (offset == 0))
             label = np.full(len(lead), self.m)
             np.minimum.at(label, which[joins], rows[pos[joins]])
             first[rows[pos[joins]]] = label[which[joins]]

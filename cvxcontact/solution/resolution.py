@@ -39,6 +39,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from ..contact.sides import pair_sides
+from ..fem.trace import TRACES
 from ..geometry.quadratic import P2Nodes
 from .solution import pair_label
 
@@ -297,7 +298,7 @@ def unheld(sol) -> list[str]:
     obstacle is read where the answer translated it (:attr:`ObstacleResult.translation
     <cvxcontact.solution.solution.ObstacleResult.translation>`)."""
     out = []
-    if sol.scene.dim != 2 or sol.degree != 2:
+    if sol.scene.dim != 2 or TRACES[sol.degree].step < 2:      # no node between two vertices: X_h holds them all
         return out
     nodes = {}
     moved = {id(o.obstacle): o.translation for o in sol.obstacles if np.any(o.translation)}   # force controlled

@@ -125,17 +125,22 @@ class ParallelRows:
         rows, cluster = self.rows[order], self.cluster[order]
         lead = np.concatenate([[True], np.diff(cluster) != 0])
         looser[rows[~lead & self.exact[cluster]]] = True
-        for k, U in self._units.items():                          # chained clusters: the greedy definition
-            mine = np.arange(*np.searchsorted(self.cluster, [k, k + 1]))     # (rows by index, U in that order;
-            # cluster sorted: a search, not a scan of every row per cluster, quadratic where every node chains)
-            seq = mine[np.argsort(gap[mine], kind="stable")]
-            U, rows, out = U[seq - mine[0]], self.rows[seq], np.zeros(len(seq), dtype=bool)
-            for i in range(len(seq)):
+        for U, rows in self._chained(gap):                        # chained clusters: the greedy definition
+            out = np.zeros(len(rows), dtype=bool)
+            for i in range(len(rows)):
                 if not out[i]:
                     out[i + 1:] |= np.abs(U[i + 1:] - U[i]).max(axis=1) <= self._tol
             looser[rows] = out
         return looser
 
+    def _chained(self, gap):
+        """Per chained cluster (not :attr:`exact`): its unit rows and rows, tightest first by ``gap`` (per position
+        of :attr:`rows`; ties by index), for the greedy definitions row by row."""
+        for k, U in self._units.items():
+            mine = np.arange(*np.searchsorted(self.cluster, [k, k + 1]))     # (rows by index, U in that order;
+            # cluster sorted: a search, not a scan of every row per cluster, quadratic where every node chains)
+            seq = mine[np.argsort(gap[mine], kind="stable")]
+            yield U[seq - mine[0]], self.rows[seq]
 
     def repeated(self, g) -> np.ndarray:
         """(m,) int: per row, the first row of its class of repeated rows under gaps ``g`` (:func:`repeated_rows`).
@@ -175,11 +180,9 @@ class ParallelRows:
             step = np.minimum.reduceat(np.where(done[pos], n[which], offset), starts)   # the next leader
             lead = lead + step
             lead, end = lead[lead < end], end[lead < end]
-        for k, U in self._units.items():                  # chained clusters: the greedy definition
-            mine = np.arange(*np.searchsorted(self.cluster, [k, k + 1]))
-            seq = mine[np.argsort(gap[self.rows[mine]], kind="stable")]
-            U, crow, out = U[seq - mine[0]], self.rows[seq], np.zeros(len(seq), dtype=bool)
-            for i in range(len(seq)):
+        for U, crow in self._chained(gap[self.rows]):     # chained clusters: the greedy definition
+            out = np.zeros(len(crow), dtype=bool)
+            for i in range(len(crow)):
                 if out[i]:
                     continue
                 same = ~out[i + 1:] & (np.abs(U[i + 1:] - U[i]).max(axis=1) <= self._tol) & (

@@ -312,22 +312,24 @@ def _signorini_terms(c, located, data, eta2, parts, fr=None, alone=True):
     xv = c.trace.vertices(x)
     if len(xv) < 2 or not (alone or fr is not None):
         return
-    gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)
-    open_ = gap - np.asarray(c.jump, dtype=float)                          # g - [u_nu] at the merged nodes
     a, b = xv[:-1], xv[1:]
     hS = b - a
-    comp = np.zeros(len(a))
-    pen = np.zeros(len(a))
-    for tq, w in zip(*_GAUSS3):
-        s = a + tq * hS
-        lam = _lambda_at(c, s)
-        g = _merged_values(c, s, open_)
-        comp += w * np.maximum(lam, 0.0) * np.maximum(g, 0.0)
-        pen += w * np.maximum(-g, 0.0) ** 2
-    comp *= hS
-    pen *= hS
+    terms = {}
+    if alone:                                  # (else read once on the side: _side_line_terms)
+        gap = np.zeros(len(x)) if c.gap is None else np.asarray(c.gap, dtype=float)
+        open_ = gap - np.asarray(c.jump, dtype=float)                      # g - [u_nu] at the merged nodes
+        comp = np.zeros(len(a))
+        pen = np.zeros(len(a))
+        for tq, w in zip(*_GAUSS3):
+            s = a + tq * hS
+            lam = _lambda_at(c, s)
+            g = _merged_values(c, s, open_)
+            comp += w * np.maximum(lam, 0.0) * np.maximum(g, 0.0)
+            pen += w * np.maximum(-g, 0.0) ** 2
+        comp *= hS
+        pen *= hS
+        terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)}
     owners = _segment_owners(located, 0.5 * (a + b))
-    terms = {"complementarity": (comp, 0), "penetration": (pen / hS, 1)} if alone else {}
     if fr is not None:                                                 # a friction law (:mod:`.slipestimate`)
         cone, slides = slip.friction_segments(fr, c, a, b, _GAUSS3)
         terms.update({"friction cone": (hS * cone, -1), "slip complementarity": (slides, 0)})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 from collections.abc import Mapping
 
@@ -106,8 +107,7 @@ def _solve(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str
     reads itself (:data:`_SOLVE_KEYWORDS`, for solvers whose options are not checked) or a parameter without a
     value (CVXPY's ParameterError) runs ``problem.solve`` as before."""
     if verbose or any(k in options for k in _SOLVE_KEYWORDS) or any(p.value is None for p in problem.parameters()):
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
+        with _inaccurate_unsaid():
             problem.solve(solver=solver, verbose=verbose, **options)
         return
     data, chain, inverse = problem.get_problem_data(solver, solver_opts=dict(options))
@@ -115,9 +115,16 @@ def _solve(problem: cp.Problem, solver: str, verbose: bool, options: Mapping[str
     if chain.invert(raw, inverse).status not in cp.settings.INACCURATE:
         problem.unpack_results(raw, chain, inverse)
         return
+    with _inaccurate_unsaid():
+        problem.unpack_results(raw, chain, inverse)
+
+
+@contextlib.contextmanager
+def _inaccurate_unsaid():
+    """CVXPY's "Solution may be inaccurate" not shown (a change of the warning filters: only where it is issued)."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Solution may be inaccurate", category=UserWarning)
-        problem.unpack_results(raw, chain, inverse)
+        yield
 
 
 def timed_program(problem: cp.Problem, settings, timings: dict, options: Mapping[str, object] | None = None) -> int:

@@ -12,7 +12,6 @@ Run (one thread; each tree's tests/ fixtures are read), interleaved:
 """
 
 import argparse
-import hashlib
 import sys
 import warnings
 from pathlib import Path
@@ -23,9 +22,9 @@ parser.add_argument("scenes", nargs="*", help="names of SCENES (default: all)")
 args = parser.parse_args()
 sys.path[:0] = [args.tree, str(Path(args.tree) / "tests")]
 
-import numpy as np
 from compliance_scenes import held_layer, pressed_block
 from conftest import two_blocks
+from harness import solution_digest
 from obstacle_scenes import circle, indented_block, indenter_scene, punch_scene
 from pair_scenes import block_on, elastic_punch
 from reach_scenes import (
@@ -42,18 +41,6 @@ from reach_scenes import (
 from stack_scenes import three_blocks
 
 import cvxcontact as cc
-
-
-def digest(sol):
-    h = hashlib.sha256()
-    add = lambda a: h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
-    for u in sol.u:
-        add(u)
-    for c in sol.contacts:
-        for name in ("lam", "force", "active"):
-            add(getattr(c, name))
-    h.update(repr((sol.ok, sorted(sol.residuals().items()))).encode())
-    return h.hexdigest()[:16]
 
 
 def stack():
@@ -106,4 +93,4 @@ for name in args.scenes or list(SCENES):
         warnings.simplefilter("always")
         sol = cc.solve(SCENES[name](), condition="gamma3", degree=2)
     nans = sum(issubclass(w.category, RuntimeWarning) and w.filename.endswith("cones.py") for w in caught)
-    print(f"{name:24s} {digest(sol)} cones.py RuntimeWarnings={nans} | {sol.info.finish}", flush=True)
+    print(f"{name:24s} {solution_digest(sol)} cones.py RuntimeWarnings={nans} | {sol.info.finish}", flush=True)

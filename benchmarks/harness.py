@@ -386,6 +386,18 @@ def load_cases(scene):
     return cases
 
 
+def solution_digest(sol) -> str:
+    """16 hex digits of a sha256 over a Solution's u, every pair's lambda_h, force and active set, ok and its checks'
+    residuals: the same-bits scripts' fingerprint of an answer (cones_nan_same_bits.py, parallel_same_bits.py)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in [*sol.u, *(getattr(c, name) for c in sol.contacts for name in ("lam", "force", "active"))]:
+        h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
+    h.update(repr((sol.ok, sorted(sol.residuals().items()))).encode())
+    return h.hexdigest()[:16]
+
+
 def residual(K, z, rhs) -> float:
     """||K z - rhs|| / ||rhs||."""
     return float(np.linalg.norm(K @ z - rhs) / np.linalg.norm(rhs))

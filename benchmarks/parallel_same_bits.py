@@ -11,7 +11,6 @@ Run (one thread; the package of each tree, the scenes of this tree's tests/reach
 """
 
 import argparse
-import hashlib
 import sys
 import warnings
 from pathlib import Path
@@ -23,6 +22,7 @@ sys.path[:0] = [args.tree, str(Path(__file__).resolve().parent.parent / "tests")
 # scenes of this tree (tests/reach_scenes.py: the same scenes whatever tree is measured)
 
 import numpy as np
+from harness import solution_digest
 from reach_scenes import BODIES, block2d, floor, line, lowered
 from reach_scenes import block as scene
 
@@ -31,18 +31,6 @@ import cvxcontact as cc
 KINDS = {"coincident": lambda d: (floor(d), floor(d)),
          "coincident over part": lambda d: (floor(d), floor(d, 0.3, 0.7)),
          "raised over part": lambda d: (floor(d), lowered(0.3, 0.7, d, drop=-3e-6))}
-
-
-def digest(sol):
-    h = hashlib.sha256()
-    add = lambda a: h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
-    for u in sol.u:
-        add(u)
-    for c in sol.contacts:
-        for name in ("lam", "force", "active"):
-            add(getattr(c, name))
-    h.update(repr((sol.ok, sorted(sol.residuals().items()))).encode())
-    return h.hexdigest()[:16]
 
 
 def with_row(dim, cell, degree, obstacles):
@@ -71,6 +59,6 @@ for name, make in CASES.items():
         try:
             sol = make()
             f = [c.force for c in sol.contacts]
-            print(f"{name:42s} {digest(sol)} ok={sol.ok} second pair's force {np.abs(f[1]).sum():.6e} N", flush=True)
+            print(f"{name:42s} {solution_digest(sol)} ok={sol.ok} second pair's force {np.abs(f[1]).sum():.6e} N", flush=True)
         except Exception as exc:                     # noqa: BLE001  (said, and the next scene run)
             print(f"{name:42s} ERROR {type(exc).__name__}: {str(exc)[:200]}", flush=True)
